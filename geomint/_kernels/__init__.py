@@ -1,0 +1,37 @@
+"""Compiled kernels: numba only, no classes, no validation, no I/O.
+
+Every kernel trusts its caller (`geomint.solve` or `MetriplecticSystem`) to have
+checked shapes, finiteness and function types.  The model reaches a kernel as
+the leading arguments ``(H, grad_H, S, grad_S, J, params)``: typed first-class
+functions, so that one cached compilation serves every system
+(DESIGN.md section 5).
+"""
+
+import hashlib
+from pathlib import Path
+
+
+def _drop_stale_cache():
+    """Delete numba's on-disk cache of these kernels when any kernel source changed.
+
+    numba invalidates a cached kernel only when the file defining it changes,
+    not when a function it calls from another file does; kernels here call
+    across files, so the whole folder's cache goes when any of its sources
+    changes.
+    """
+    folder = Path(__file__).parent
+    digest = hashlib.sha256(b"".join(p.read_bytes() for p in sorted(folder.glob("*.py")))).hexdigest()
+    cache = folder / "__pycache__"
+    stamp = cache / "geomint-kernels.sha256"
+    try:
+        if stamp.exists() and stamp.read_text() == digest:
+            return
+        cache.mkdir(exist_ok=True)
+        for path in (*cache.glob("*.nbi"), *cache.glob("*.nbc")):
+            path.unlink()
+        stamp.write_text(digest)
+    except OSError:  # read-only install: numba falls back to its own cache folder
+        pass
+
+
+_drop_stale_cache()

@@ -1,0 +1,92 @@
+"""Arithmetic on 3-vectors held as tuples of floats (no allocation in hot loops)."""
+
+import numpy as np
+from numba import njit, types
+from numba.extending import overload
+
+
+@njit(inline="always")
+def add(u, v):
+    return (u[0] + v[0], u[1] + v[1], u[2] + v[2])
+
+
+@njit(inline="always")
+def sub(u, v):
+    return (u[0] - v[0], u[1] - v[1], u[2] - v[2])
+
+
+@njit(inline="always")
+def scale(a, u):
+    return (a * u[0], a * u[1], a * u[2])
+
+
+@njit(inline="always")
+def axpy(a, u, v):
+    """``a*u + v``."""
+    return (a * u[0] + v[0], a * u[1] + v[1], a * u[2] + v[2])
+
+
+@njit(inline="always")
+def dot(u, v):
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+
+
+@njit(inline="always")
+def cross(u, v):
+    return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+
+
+@njit(inline="always")
+def norm_inf(u):
+    return max(abs(u[0]), abs(u[1]), abs(u[2]))
+
+
+@njit(inline="always")
+def is_finite(u):
+    return np.isfinite(u[0]) and np.isfinite(u[1]) and np.isfinite(u[2])
+
+
+@njit(inline="always")
+def load(buf, u):
+    """Write the tuple ``u`` into the work array ``buf`` (user functions take arrays)."""
+    buf[0] = u[0]
+    buf[1] = u[1]
+    buf[2] = u[2]
+    return buf
+
+
+@njit(inline="always")
+def solve(m, r):
+    """Solve the 3x3 system ``m y = r`` (``m`` a tuple of rows) by Cramer's rule.
+
+    Returns ``r`` unchanged when ``m`` is singular or not finite, i.e. the
+    Newton step falls back to a fixed-point step.
+    """
+    c0 = cross(m[1], m[2])
+    c1 = cross(m[2], m[0])
+    c2 = cross(m[0], m[1])
+    det = dot(m[0], c0)
+    if det == 0.0 or not np.isfinite(det):
+        return r
+    return (
+        (c0[0] * r[0] + c1[0] * r[1] + c2[0] * r[2]) / det,
+        (c0[1] * r[0] + c1[1] * r[1] + c2[1] * r[2]) / det,
+        (c0[2] * r[0] + c1[2] * r[1] + c2[2] * r[2]) / det,
+    )
+
+
+def as_vector(v):
+    """A user function's vector result as a 3-tuple; a 3x3 matrix ``P`` gives its axial vector.
+
+    ``P v = v x J`` means ``J = (P[1,2], -P[0,2], P[0,1])``.
+    """
+    if np.ndim(v) == 2:  # pure-Python path (NUMBA_DISABLE_JIT=1)
+        return (v[1][2], -v[0][2], v[0][1])
+    return (v[0], v[1], v[2])
+
+
+@overload(as_vector, inline="always")
+def _as_vector(v):
+    if isinstance(v, types.Array) and v.ndim == 2:
+        return lambda v: (v[1, 2], -v[0, 2], v[0, 1])
+    return lambda v: (v[0], v[1], v[2])

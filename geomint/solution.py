@@ -1,0 +1,70 @@
+"""The result of ``geomint.solve``."""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Solution:
+    """A trajectory with its invariants, status and work counts.
+
+    Field names follow ``scipy.integrate.OdeResult`` where they fit.
+
+    Attributes
+    ----------
+    t : (n,) array
+        Saved times: every ``save_every``-th step, and always the last state
+        reached (``t_end`` on success, the last good state on failure).
+    x : (n, 3) array
+        States at ``t``.
+    H, S : (n,) arrays
+        Energy and Casimir at ``t``.
+    success : bool
+        True when the run reached ``t_end``.
+    status : int
+        0: reached ``t_end``; -1: a Newton solve did not converge; -2: a step
+        produced a non-finite state.
+    message : str
+        What happened, naming the failed step and time if any.
+    failed_step : int or None
+        Index ``k`` of the step ``t_{k-1} -> t_k`` that failed.
+    n_steps, n_newton, nfev : int
+        Steps taken, Newton iterations, evaluations of the field (gradient triples).
+    method : Integrator
+        The method used.
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    H: np.ndarray
+    S: np.ndarray
+    success: bool
+    status: int
+    message: str
+    failed_step: int | None
+    n_steps: int
+    n_newton: int
+    nfev: int
+    method: object
+
+    @property
+    def t_final(self):
+        """Time of the last state reached."""
+        return float(self.t[-1])
+
+    @property
+    def x_final(self):
+        """The last state reached (kept even when only every k-th state is saved)."""
+        return self.x[-1]
+
+    @property
+    def energy_error(self):
+        """``max |H - H0| / |H0|`` over the saved states (absolute when H0 = 0)."""
+        H0 = self.H[0]
+        return float(np.max(np.abs(self.H - H0)) / (abs(H0) if H0 != 0 else 1.0))
+
+    @property
+    def S_rises(self):
+        """Number of saved consecutive pairs with ``S`` increasing."""
+        return int(np.count_nonzero(np.diff(self.S) > 0))
