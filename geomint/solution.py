@@ -66,5 +66,10 @@ class Solution:
 
     @property
     def S_rises(self):
-        """Number of saved consecutive pairs with ``S`` increasing."""
-        return int(np.count_nonzero(np.diff(self.S) > 0))
+        """Saved consecutive pairs where S rose by more than round-off (see ``count_S_rises``)."""
+        return self.count_S_rises()
+
+    def count_S_rises(self, ulps=16):
+        """Saved consecutive pairs with ``S_{n+1} - S_n > ulps * eps * max(|S_n|, |S_{n+1}|)``."""
+        tol = ulps * np.finfo(np.float64).eps * np.maximum(np.abs(self.S[:-1]), np.abs(self.S[1:]))
+        return int(np.count_nonzero(np.diff(self.S) > tol))

@@ -79,7 +79,7 @@ def solve(system, x0, t_span, h, method="gonzalez", save_every=1, progress=None)
     for k_begin in range(0, n_steps, chunk):
         k_end = min(n_steps, k_begin + chunk)
         integrate(
-            *system.model, system.eps, code, coeffs, iopts, state, k_begin, k_end, t0, h, n_steps, h_last,
+            *system.model, system.eps, system.hamiltonian, code, coeffs, iopts, state, k_begin, k_end, t0, h, n_steps, h_last,
             save_every, out_t, out_x, out_H, out_S, counters, residual,
         )
         if progress is not None:

@@ -107,6 +107,7 @@ class MetriplecticSystem:
         if (J is None) == (P is None):
             raise ValueError("give exactly one of `J` (axial vector) and `P` (skew matrix) for the Poisson tensor.")
         self.eps = _check_eps(eps)
+        self.hamiltonian = True
         self._params = _check_params(params)
         self.name = str(name)
         scalar = {key: _scalar_function(key, fn) for key, fn in (("H", H), ("S", S))}
@@ -143,15 +144,26 @@ class MetriplecticSystem:
         """``(vector_form, poisson_form)``: selects the compiled kernel variant."""
         return (self.functions.vector_form, self.functions.poisson_form)
 
-    def with_eps(self, eps):
-        """The same system with another perturbation parameter."""
+    def with_effects(self, *, hamiltonian=None, eps=None):
+        """The same system with the Hamiltonian part switched on/off and/or another eps.
+
+        ``hamiltonian=False`` leaves the gradient system ``dx/dt = eps xi_g``
+        (its kernels never call ``J``); ``eps=0`` leaves the Hamiltonian system
+        (its fields never call ``grad_S``).
+        """
         other = object.__new__(MetriplecticSystem)
         other.__dict__.update(self.__dict__)
-        other.eps = _check_eps(eps)
+        if hamiltonian is not None:
+            if not isinstance(hamiltonian, (bool, np.bool_)):
+                raise TypeError(f"`hamiltonian` must be True or False; got {hamiltonian!r}.")
+            other.hamiltonian = bool(hamiltonian)
+        if eps is not None:
+            other.eps = _check_eps(eps)
         return other
 
     def __repr__(self):
-        return f"MetriplecticSystem(name={self.name!r}, eps={self.eps!r}, params={self.params.tolist()!r})"
+        effects = "" if self.hamiltonian else ", hamiltonian=False"
+        return f"MetriplecticSystem(name={self.name!r}, eps={self.eps!r}{effects}, params={self.params.tolist()!r})"
 
     # -- vectorised evaluation ---------------------------------------------------------
     def _evaluate(self, x):
@@ -193,8 +205,8 @@ class MetriplecticSystem:
         return np.cross(gh, np.cross(gh, gs))
 
     def xi(self, x):
-        """The metriplectic field ``xi_P + eps xi_g``."""
-        return self.xi_P(x) + self.eps * self.xi_g(x)
+        """The field ``xi_P + eps xi_g`` (without ``xi_P`` when the Hamiltonian part is off)."""
+        return (self.xi_P(x) if self.hamiltonian else 0.0) + self.eps * self.xi_g(x)
 
     def g(self, x):
         """The metric ``grad H (x) grad H - I |grad H|^2``, shape (3, 3) or (n, 3, 3)."""

@@ -12,9 +12,9 @@ keeps H exactly and lowers S by ``h eps |dgH x dgS|^2`` (DESIGN.md section 2).
 import numpy as np
 from numba import njit, types
 
-from .field import gradients, metriplectic
+from .field import ZERO, dissipative
 from .signatures import i64, mat, model_kernel, vec
-from .vec3 import axpy, dot, load, norm_inf, scale, sub
+from .vec3 import as_vector, axpy, cross, dot, load, norm_inf, scale, sub
 
 GONZALEZ = 0
 
@@ -56,20 +56,24 @@ def discrete_axial(axial, grad_s):
 
 
 @njit(inline="always")
-def discrete_field(kind, H, grad_H, S, grad_S, J, params, eps, buf, x, H_old, S_old, x_new):
-    """The discrete field F(x, x') and (H(x'), S(x'), dgH, dgS, Jbar)."""
+def discrete_field(kind, H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, H_old, S_old, x_new):
+    """The discrete field F(x, x') and (H(x'), S(x'), dgH, dgS, Jbar).
+
+    ``J`` is called only with the Hamiltonian part on (else ``Jbar = 0``); S and
+    its gradient are always needed, to keep ``Jbar`` parallel to dgS.
+    """
     dx = sub(x_new, x)
     mid = axpy(0.5, dx, x)
     size = max(norm_inf(x), norm_inf(x_new))
     load(buf, x_new)
     H_new = H(buf, params)
     S_new = S(buf, params)
-    grad_h, grad_s, axial = gradients(grad_H, grad_S, J, params, buf, mid)
+    load(buf, mid)
     # kind selects the discrete gradient; GONZALEZ is the only one so far.
-    dg_h = gonzalez(grad_h, H_old, H_new, dx, size)
-    dg_s = gonzalez(grad_s, S_old, S_new, dx, size)
-    axial_bar = discrete_axial(axial, dg_s)
-    F = metriplectic(dg_h, dg_s, axial_bar, eps)
+    dg_h = gonzalez(as_vector(grad_H(buf, params)), H_old, H_new, dx, size)
+    dg_s = gonzalez(as_vector(grad_S(buf, params)), S_old, S_new, dx, size)
+    axial_bar = discrete_axial(as_vector(J(buf, params)), dg_s) if hamiltonian else ZERO
+    F = dissipative(dg_h, dg_s, eps, cross(dg_h, axial_bar))
     return F, H_new, S_new, dg_h, dg_s, axial_bar
 
 
@@ -77,7 +81,7 @@ def discrete_field(kind, H, grad_H, S, grad_S, J, params, eps, buf, x, H_old, S_
 def evaluate(H, grad_H, S, grad_S, J, params, kind, x_old, x_new, out):
     """Rows of ``out`` (3, 3): dgH, dgS and Jbar at the pair ``(x_old, x_new)``.
 
-    Caller: ``DiscreteGradientIntegrator.discrete_gradients`` (tests, diagnostics).
+    Caller: ``Gonzalez.discrete_gradients`` (tests, diagnostics).
     """
     buf = np.empty(3)
     x = (x_old[0], x_old[1], x_old[2])
@@ -86,7 +90,7 @@ def evaluate(H, grad_H, S, grad_S, J, params, kind, x_old, x_new, out):
     H_old = H(buf, params)
     S_old = S(buf, params)
     F, H_new, S_new, dg_h, dg_s, axial = discrete_field(
-        kind, H, grad_H, S, grad_S, J, params, 0.0, buf, x, H_old, S_old, xn
+        kind, H, grad_H, S, grad_S, J, params, 0.0, True, buf, x, H_old, S_old, xn
     )
     for k in range(3):
         out[0, k] = dg_h[k]

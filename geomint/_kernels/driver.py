@@ -27,9 +27,9 @@ def _save(out_t, out_x, out_H, out_S, counters, t, x, H_x, S_x):
     counters[ROWS] = row + 1
 
 
-@model_kernel(types.void, f64, i64, vec, ivec, vec, i64, i64, f64, f64, i64, f64, i64, vec, mat, vec, vec, ivec, vec)
+@model_kernel(types.void, f64, types.boolean, i64, vec, ivec, vec, i64, i64, f64, f64, i64, f64, i64, vec, mat, vec, vec, ivec, vec)
 def integrate(
-    H, grad_H, S, grad_S, J, params, eps, code, coeffs, iopts,
+    H, grad_H, S, grad_S, J, params, eps, hamiltonian, code, coeffs, iopts,
     state, k_begin, k_end, t0, h, n_steps, h_last, save_every,
     out_t, out_x, out_H, out_S, counters, residual,
 ):
@@ -51,7 +51,7 @@ def integrate(
     for k in range(k_begin, k_end):
         hk = h_last if k == n_steps - 1 else h
         x_new, H_new, S_new, status, iterations, evaluations, res = step(
-            code, H, grad_H, S, grad_S, J, params, eps, coeffs, iopts, buf, x, H_x, S_x, hk
+            code, H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, H_x, S_x, hk
         )
         counters[NEWTON_ITERATIONS] += iterations
         counters[FIELD_EVALUATIONS] += evaluations

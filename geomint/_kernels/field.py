@@ -3,6 +3,10 @@
     xi_P = grad H x J                      (Hamiltonian part, keeps H and S)
     xi_g = grad H x (grad H x grad S)      (gradient part, keeps H, lowers S)
     xi   = xi_P + eps * xi_g
+
+Kernels take ``hamiltonian`` (include xi_P) and ``eps`` (include xi_g when
+nonzero) and evaluate only what is switched on: with the Hamiltonian part off
+``J`` is never called, with ``eps = 0`` the field never calls ``grad S``.
 """
 
 import numpy as np
@@ -23,22 +27,24 @@ def gradients(grad_H, grad_S, J, params, buf, x):
     )
 
 
-@njit(inline="always")
-def metriplectic(grad_h, grad_s, axial, eps):
-    """``grad_h x axial + eps * grad_h x (grad_h x grad_s)``.
-
-    With the exact gradients this is the field xi; with discrete gradients and a
-    discrete axial vector parallel to the discrete grad S it is the update
-    direction of the energy-exact, entropy-dissipating step (DESIGN.md section 2).
-    """
-    return axpy(eps, cross(grad_h, cross(grad_h, grad_s)), cross(grad_h, axial))
+ZERO = (0.0, 0.0, 0.0)
 
 
 @njit(inline="always")
-def field(grad_H, grad_S, J, params, eps, buf, x):
-    """The metriplectic field xi(x)."""
-    grad_h, grad_s, axial = gradients(grad_H, grad_S, J, params, buf, x)
-    return metriplectic(grad_h, grad_s, axial, eps)
+def dissipative(grad_h, grad_s, eps, base):
+    """``base + eps * grad_h x (grad_h x grad_s)``."""
+    return axpy(eps, cross(grad_h, cross(grad_h, grad_s)), base)
+
+
+@njit(inline="always")
+def field(grad_H, grad_S, J, params, eps, hamiltonian, buf, x):
+    """The metriplectic field xi(x), with only the switched-on parts evaluated."""
+    load(buf, x)
+    grad_h = as_vector(grad_H(buf, params))
+    value = cross(grad_h, as_vector(J(buf, params))) if hamiltonian else ZERO
+    if eps != 0.0:
+        value = dissipative(grad_h, as_vector(grad_S(buf, params)), eps, value)
+    return value
 
 
 @model_kernel(types.void, mat, vec, vec, mat, mat, mat)

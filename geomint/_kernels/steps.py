@@ -1,6 +1,6 @@
 """One step of each method family, all with the same calling convention.
 
-``step(code, model..., eps, coeffs, iopts, buf, x, H_x, S_x, h)`` returns
+``step(code, model..., eps, hamiltonian, coeffs, iopts, buf, x, H_x, S_x, h)`` returns
 ``(x_new, H_new, S_new, status, newton_iterations, field_evaluations, residual)``.
 ``code`` names the family, ``coeffs``/``iopts`` carry the method's data (see
 ``geomint.integrators``) and ``buf`` is a length-3 work array.  ``status`` is ``OK`` or one of the failure codes below.
@@ -37,25 +37,25 @@ def _with_invariants(H, S, params, buf, x_new, status, iterations, evaluations, 
 
 
 @njit
-def rk4_step(H, grad_H, S, grad_S, J, params, eps, buf, x, h):
+def rk4_step(H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, h):
     """Classical Runge-Kutta, order 4: the generic, structure-blind baseline."""
-    k1 = field(grad_H, grad_S, J, params, eps, buf, x)
-    k2 = field(grad_H, grad_S, J, params, eps, buf, axpy(0.5 * h, k1, x))
-    k3 = field(grad_H, grad_S, J, params, eps, buf, axpy(0.5 * h, k2, x))
-    k4 = field(grad_H, grad_S, J, params, eps, buf, axpy(h, k3, x))
+    k1 = field(grad_H, grad_S, J, params, eps, hamiltonian, buf, x)
+    k2 = field(grad_H, grad_S, J, params, eps, hamiltonian, buf, axpy(0.5 * h, k1, x))
+    k3 = field(grad_H, grad_S, J, params, eps, hamiltonian, buf, axpy(0.5 * h, k2, x))
+    k4 = field(grad_H, grad_S, J, params, eps, hamiltonian, buf, axpy(h, k3, x))
     incr = add(add(k1, k4), scale(2.0, add(k2, k3)))
     x_new = axpy(h / 6.0, incr, x)
     return _with_invariants(H, S, params, buf, x_new, OK, 0, 4, 0.0)
 
 
 @njit(inline="always")
-def _newton_matrix(grad_H, grad_S, J, params, eps, buf, x, f0, h):
+def _newton_matrix(grad_H, grad_S, J, params, eps, hamiltonian, buf, x, f0, h):
     """Rows of ``I - h/2 D xi(x)``, with ``D xi`` by forward differences (3 field calls)."""
     size = norm_inf(x)
     delta = SQRT_EPS * (size if size > 0.0 else 1.0)
-    c0 = scale(1.0 / delta, sub(field(grad_H, grad_S, J, params, eps, buf, (x[0] + delta, x[1], x[2])), f0))
-    c1 = scale(1.0 / delta, sub(field(grad_H, grad_S, J, params, eps, buf, (x[0], x[1] + delta, x[2])), f0))
-    c2 = scale(1.0 / delta, sub(field(grad_H, grad_S, J, params, eps, buf, (x[0], x[1], x[2] + delta)), f0))
+    c0 = scale(1.0 / delta, sub(field(grad_H, grad_S, J, params, eps, hamiltonian, buf, (x[0] + delta, x[1], x[2])), f0))
+    c1 = scale(1.0 / delta, sub(field(grad_H, grad_S, J, params, eps, hamiltonian, buf, (x[0], x[1] + delta, x[2])), f0))
+    c2 = scale(1.0 / delta, sub(field(grad_H, grad_S, J, params, eps, hamiltonian, buf, (x[0], x[1], x[2] + delta)), f0))
     a = -0.5 * h
     return (
         (1.0 + a * c0[0], a * c1[0], a * c2[0]),
@@ -65,7 +65,7 @@ def _newton_matrix(grad_H, grad_S, J, params, eps, buf, x, f0, h):
 
 
 @njit
-def discrete_gradient_step(kind, max_iter, H, grad_H, S, grad_S, J, params, eps, buf, x, H_x, S_x, h):
+def discrete_gradient_step(kind, max_iter, H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, H_x, S_x, h):
     """Solve ``x' = x + h F(x, x')`` (see ``discrete_field``) by Newton's method to round-off.
 
     Newton matrix ``I - h/2 D xi`` (the implicit-midpoint Jacobian, exact for
@@ -78,14 +78,14 @@ def discrete_gradient_step(kind, max_iter, H, grad_H, S, grad_S, J, params, eps,
     current midpoint.  Fails after ``max_iter`` iterations or on a non-finite
     iterate.
     """
-    f0 = field(grad_H, grad_S, J, params, eps, buf, x)
-    m = _newton_matrix(grad_H, grad_S, J, params, eps, buf, x, f0, h)
+    f0 = field(grad_H, grad_S, J, params, eps, hamiltonian, buf, x)
+    m = _newton_matrix(grad_H, grad_S, J, params, eps, hamiltonian, buf, x, f0, h)
     x_new = add(x, solve(m, scale(h, f0)))
     evaluations = 4
     previous = np.inf
     for iteration in range(1, max_iter + 1):
         F, H_new, S_new, dg_h, dg_s, axial_bar = discrete_field(
-            kind, H, grad_H, S, grad_S, J, params, eps, buf, x, H_x, S_x, x_new
+            kind, H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, H_x, S_x, x_new
         )
         evaluations += 1
         correction = solve(m, sub(sub(x_new, x), scale(h, F)))
@@ -100,18 +100,18 @@ def discrete_gradient_step(kind, max_iter, H, grad_H, S, grad_S, J, params, eps,
             if error <= SQRT_EPS * size:
                 return _with_invariants(H, S, params, buf, x_new, OK, iteration, evaluations, error)
             mid = axpy(0.5, sub(x_new, x), x)
-            f_mid = field(grad_H, grad_S, J, params, eps, buf, mid)
-            m = _newton_matrix(grad_H, grad_S, J, params, eps, buf, mid, f_mid, h)
+            f_mid = field(grad_H, grad_S, J, params, eps, hamiltonian, buf, mid)
+            m = _newton_matrix(grad_H, grad_S, J, params, eps, hamiltonian, buf, mid, f_mid, h)
             evaluations += 4
         previous = error
     return x_new, H_new, S_new, NEWTON_FAILED, max_iter, evaluations, error
 
 
 @njit
-def step(code, H, grad_H, S, grad_S, J, params, eps, coeffs, iopts, buf, x, H_x, S_x, h):
+def step(code, H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, H_x, S_x, h):
     """Advance ``x`` by ``h`` with the method ``(code, coeffs, iopts)``."""
     if code == RK4:
-        return rk4_step(H, grad_H, S, grad_S, J, params, eps, buf, x, h)
+        return rk4_step(H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, h)
     return discrete_gradient_step(
-        iopts[DG_KIND], iopts[DG_MAX_ITER], H, grad_H, S, grad_S, J, params, eps, buf, x, H_x, S_x, h
+        iopts[DG_KIND], iopts[DG_MAX_ITER], H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, H_x, S_x, h
     )
