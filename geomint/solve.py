@@ -73,7 +73,7 @@ def solve(system, x0, t_span, h, method="gonzalez", save_every=1, progress=None)
     counters[_driver.ROWS] = 1
     residual = np.zeros(1)
     code, coeffs, iopts = integrator.lower()
-    state = x0.copy()
+    state = np.concatenate([x0, np.zeros(3), [out_H[0]]])  # state, its compensation, the energy anchor
     chunk = n_steps if progress is None else max(1, min(n_steps, 100_000))
     integrate = _driver.integrate[system.form]
     for k_begin in range(0, n_steps, chunk):

@@ -22,7 +22,8 @@ GONZALEZ = 0
 #: midpoint gradient.  The quotient's round-off error is ~ eps |F| / |dx| and the
 #: midpoint gradient's defect as a discrete gradient is ~ |dx|^3 |F'''|; both
 #: are below one ulp of F at |dx| = eps^(1/3) |x|.
-SWITCH = np.finfo(np.float64).eps ** (1.0 / 3.0)
+EPS = np.finfo(np.float64).eps
+SWITCH = EPS ** (1.0 / 3.0)
 
 
 @njit(inline="always")
@@ -32,12 +33,16 @@ def gonzalez(grad_mid, f_old, f_new, dx, size):
         dgF = grad F(xbar) + [F(x') - F(x) - grad F(xbar) . dx] / |dx|^2 dx
 
     Symmetric, second order.  ``size`` is the scale of the state used in the
-    switching rule (see ``SWITCH``).
+    switching rule (see ``SWITCH``).  Returns ``(dgF, noise)``: ``noise``
+    bounds the round-off of the correction term, 4 eps (|F(x)| + |F(x')| +
+    |grad F . dx|) / |dx| (0 for the midpoint gradient).
     """
     dx2 = dot(dx, dx)
     if dx2 <= (SWITCH * size) ** 2:
-        return grad_mid
-    return axpy((f_new - f_old - dot(grad_mid, dx)) / dx2, dx, grad_mid)
+        return grad_mid, 0.0
+    slope = dot(grad_mid, dx)
+    noise = 4.0 * EPS * (abs(f_old) + abs(f_new) + abs(slope)) / np.sqrt(dx2)
+    return axpy((f_new - f_old - slope) / dx2, dx, grad_mid), noise
 
 
 @njit(inline="always")
@@ -51,16 +56,18 @@ def discrete_axial(axial, grad_s):
     size = norm_inf(grad_s)
     if size == 0.0 or not np.isfinite(size):
         return axial
-    n = scale(1.0 / size, grad_s)
+    n = (grad_s[0] / size, grad_s[1] / size, grad_s[2] / size)  # not 1/size: it overflows for subnormal sizes
     return scale(dot(axial, n) / dot(n, n), n)
 
 
 @njit(inline="always")
 def discrete_field(kind, H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, H_old, S_old, x_new):
-    """The discrete field F(x, x') and (H(x'), S(x'), dgH, dgS, Jbar).
+    """The discrete field F(x, x') and (H(x'), S(x'), dgH, dgS, Jbar, noise).
 
     ``J`` is called only with the Hamiltonian part on (else ``Jbar = 0``); S and
     its gradient are always needed, to keep ``Jbar`` parallel to dgS.
+    ``noise`` bounds the round-off that the discrete gradients carry into F: the
+    floor below which a Newton correction cannot go.
     """
     dx = sub(x_new, x)
     mid = axpy(0.5, dx, x)
@@ -70,11 +77,17 @@ def discrete_field(kind, H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf,
     S_new = S(buf, params)
     load(buf, mid)
     # kind selects the discrete gradient; GONZALEZ is the only one so far.
-    dg_h = gonzalez(as_vector(grad_H(buf, params)), H_old, H_new, dx, size)
-    dg_s = gonzalez(as_vector(grad_S(buf, params)), S_old, S_new, dx, size)
-    axial_bar = discrete_axial(as_vector(J(buf, params)), dg_s) if hamiltonian else ZERO
+    dg_h, noise_h = gonzalez(as_vector(grad_H(buf, params)), H_old, H_new, dx, size)
+    dg_s, noise_s = gonzalez(as_vector(grad_S(buf, params)), S_old, S_new, dx, size)
+    size_h, size_s = norm_inf(dg_h), norm_inf(dg_s)
+    noise = eps * (2.0 * noise_h * size_s + noise_s * size_h) * size_h
+    axial_bar = ZERO
+    if hamiltonian:
+        axial = as_vector(J(buf, params))
+        axial_bar = discrete_axial(axial, dg_s)
+        noise += noise_h * norm_inf(axial) + (size_h * norm_inf(axial) * noise_s / size_s if size_s > 0.0 else 0.0)
     F = dissipative(dg_h, dg_s, eps, cross(dg_h, axial_bar))
-    return F, H_new, S_new, dg_h, dg_s, axial_bar
+    return F, H_new, S_new, dg_h, dg_s, axial_bar, noise
 
 
 @model_kernel(types.void, i64, vec, vec, mat)
@@ -89,7 +102,7 @@ def evaluate(H, grad_H, S, grad_S, J, params, kind, x_old, x_new, out):
     load(buf, x)
     H_old = H(buf, params)
     S_old = S(buf, params)
-    F, H_new, S_new, dg_h, dg_s, axial = discrete_field(
+    F, H_new, S_new, dg_h, dg_s, axial, noise = discrete_field(
         kind, H, grad_H, S, grad_S, J, params, 0.0, True, buf, x, H_old, S_old, xn
     )
     for k in range(3):
