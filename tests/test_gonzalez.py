@@ -101,3 +101,14 @@ def test_failure_after_some_steps_keeps_everything_before_it():
     assert f"Step {k} " in sol.message
     assert sol.n_steps == k - 1 and sol.t[-1] == pytest.approx(20.0 * (k - 1))
     assert np.all(np.abs(sol.H - sol.H[0]) <= 64 * EPS * abs(sol.H[0]))  # what was kept is exact
+
+
+@pytest.mark.parametrize("eps", [0.1, 0.5, 1.0])
+def test_relaxation_into_the_stable_pole_never_stalls_newton(eps):
+    """Regression: near the attracting pole the increments are tiny and the Newton
+    corrections bounce on the round-off floor; that must be recognised, not fail."""
+    body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=eps)
+    sol = geomint.solve(body, [0.00483841, -0.00917336, 0.92885403], (0.0, 200.0), 0.02)
+    assert sol.success, sol.message
+    assert sol.energy_error <= 16 * EPS and sol.S_rises == 0
+    assert sol.S[-1] == pytest.approx(sol.H[0] / 1.5, rel=1e-12)  # S_inf = H0 / c

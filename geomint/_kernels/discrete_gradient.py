@@ -18,31 +18,30 @@ from .vec3 import as_vector, axpy, cross, dot, load, norm_inf, scale, sub
 
 GONZALEZ = 0
 
-#: Below ``|dx| <= SWITCH * |x|`` the Gonzalez quotient is replaced by the
-#: midpoint gradient.  The quotient's round-off error is ~ eps |F| / |dx| and the
-#: midpoint gradient's defect as a discrete gradient is ~ |dx|^3 |F'''|; both
-#: are below one ulp of F at |dx| = eps^(1/3) |x|.
 EPS = np.finfo(np.float64).eps
-SWITCH = EPS ** (1.0 / 3.0)
 
 
 @njit(inline="always")
-def gonzalez(grad_mid, f_old, f_new, dx, size):
+def gonzalez(grad_mid, f_old, f_new, dx):
     """Gonzalez's discrete gradient (J. Nonlinear Sci. 6 (1996) 449, doi:10.1007/BF02440162).
 
-        dgF = grad F(xbar) + [F(x') - F(x) - grad F(xbar) . dx] / |dx|^2 dx
+        dgF = grad F(xbar) + N / |dx|^2 dx,   N = F(x') - F(x) - grad F(xbar) . dx
 
-    Symmetric, second order.  ``size`` is the scale of the state used in the
-    switching rule (see ``SWITCH``).  Returns ``(dgF, noise)``: ``noise``
-    bounds the round-off of the correction term, 4 eps (|F(x)| + |F(x')| +
-    |grad F . dx|) / |dx| (0 for the midpoint gradient).
+    Symmetric, second order.  Switching rule: N is computed with round-off up
+    to ``4 eps (|F(x)| + |F(x')| + |grad F . dx|)``; where |N| is below that,
+    the correction is round-off alone and the midpoint gradient ``grad F(xbar)``
+    already satisfies the discrete-gradient identity to round-off, so it is
+    used (this covers dx -> 0, where N = O(|dx|^3), and F nearly constant).
+    Returns ``(dgF, noise)``: ``noise`` bounds the round-off the correction
+    carries, that bound divided by |dx| (0 for the midpoint gradient).
     """
-    dx2 = dot(dx, dx)
-    if dx2 <= (SWITCH * size) ** 2:
-        return grad_mid, 0.0
     slope = dot(grad_mid, dx)
-    noise = 4.0 * EPS * (abs(f_old) + abs(f_new) + abs(slope)) / np.sqrt(dx2)
-    return axpy((f_new - f_old - slope) / dx2, dx, grad_mid), noise
+    defect = f_new - f_old - slope
+    bound = 4.0 * EPS * (abs(f_old) + abs(f_new) + abs(slope))
+    if not abs(defect) > bound:
+        return grad_mid, 0.0
+    dx2 = dot(dx, dx)
+    return axpy(defect / dx2, dx, grad_mid), bound / np.sqrt(dx2)
 
 
 @njit(inline="always")
@@ -71,14 +70,13 @@ def discrete_field(kind, H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf,
     """
     dx = sub(x_new, x)
     mid = axpy(0.5, dx, x)
-    size = max(norm_inf(x), norm_inf(x_new))
     load(buf, x_new)
     H_new = H(buf, params)
     S_new = S(buf, params)
     load(buf, mid)
     # kind selects the discrete gradient; GONZALEZ is the only one so far.
-    dg_h, noise_h = gonzalez(as_vector(grad_H(buf, params)), H_old, H_new, dx, size)
-    dg_s, noise_s = gonzalez(as_vector(grad_S(buf, params)), S_old, S_new, dx, size)
+    dg_h, noise_h = gonzalez(as_vector(grad_H(buf, params)), H_old, H_new, dx)
+    dg_s, noise_s = gonzalez(as_vector(grad_S(buf, params)), S_old, S_new, dx)
     size_h, size_s = norm_inf(dg_h), norm_inf(dg_s)
     noise = eps * (2.0 * noise_h * size_s + noise_s * size_h) * size_h
     axial_bar = ZERO

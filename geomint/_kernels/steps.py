@@ -115,13 +115,12 @@ def discrete_gradient_step(
     does not random-walk the energy.  ``S_x`` is S(x_n).
 
     The iteration has converged when the correction is within 4 ulp of the state
-    and increment.  With ``theta`` the ratio of successive corrections,
-    convergence slower than ``theta = 1/2`` re-evaluates the Newton
-    matrix as the finite-difference Jacobian of the discrete residual itself;
-    if even then the correction stops shrinking, within 16 times the round-off
-    floor (4 ulp of the state plus ``h`` times the noise the discrete-gradient
-    quotients carry, ~ eps |F| / |dx|), that floor is reached and the root
-    accepted.  An accepted root must keep H and not raise S
+    and increment.  When a correction is not below half the smallest one so far
+    (stalled), the Newton matrix becomes the finite-difference Jacobian of the
+    discrete residual itself; once that has been done, a stalled correction
+    within 16 times the round-off floor (4 ulp of the state plus ``h`` times the
+    noise the discrete-gradient quotients carry, ~ eps |F| / |dx|) means the
+    floor is reached, and the root is accepted.  An accepted root must keep H and not raise S
     to within ``GUARD`` ulps of the terms (the scheme guarantees both for the
     true root; a far-away spurious root, reached from a step far beyond the time
     scale, fails this).  Fails on divergence, on a spurious root, after
@@ -135,9 +134,9 @@ def discrete_gradient_step(
         dx = scale(h, f0)
     x_new = add(x, dx)
     evaluations = 4
-    previous = np.inf
+    best = np.inf
     error = 0.0
-    fresh = False
+    refreshed = False
     for iteration in range(1, max_iter + 1):
         F, H_new, S_new, dg_h, dg_s, axial_bar, noise = discrete_field(
             kind, H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, H_x, S_x, x_new
@@ -151,8 +150,8 @@ def discrete_gradient_step(
             return x_new, comp, H_new, S_new, NON_FINITE, iteration, evaluations, error
         size = max(norm_inf(x_new), norm_inf(dx))
         floor = 4.0 * EPS * size + 2.0 * h * noise
-        theta = error / previous
-        if error <= 4.0 * EPS * size or (fresh and theta >= 0.5 and error <= 16.0 * floor):
+        stalled = error >= 0.5 * best
+        if error <= 4.0 * EPS * size or (stalled and refreshed and error <= 16.0 * floor):
             x_new, comp_new, H_new, S_new = advance(H, S, params, buf, x, comp, dx)
             slack = GUARD * EPS * size
             if abs(H_new - H_x) <= slack * norm_inf(dg_h) + GUARD * EPS * max(abs(H_x), abs(H_new)) and (
@@ -162,11 +161,11 @@ def discrete_gradient_step(
             break  # a spurious root: the invariants the scheme guarantees do not hold
         if error > 1e3 * (norm_inf(x) + reach):
             break  # diverged
-        fresh = theta >= 0.5
-        if fresh:
+        if stalled:
             m = _residual_matrix(kind, H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, H_x, S_x, h, x_new)
             evaluations += 4
-        previous = error
+            refreshed = True
+        best = min(best, error)
     return x_new, comp, H_x, S_x, NEWTON_FAILED, iteration, evaluations, error
 
 
