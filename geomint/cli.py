@@ -62,8 +62,9 @@ def _parser():
     return parser
 
 
-def drift(steps, h, eps, out=sys.stdout):
+def drift(steps, h, eps, out=None):
     """Print max |H - H0|/|H0|, S rises and the final S for Gonzalez and RK4."""
+    out = sys.stdout if out is None else out
     system = relaxing_rigid_body(0.5, 1.0, 1.5, eps=eps)
     x0 = np.array([np.cos(1.1), 0.0, np.sin(1.1)])
     save_every = max(1, steps // 1000)
@@ -86,8 +87,9 @@ def drift(steps, h, eps, out=sys.stdout):
     return 1 if failed else 0
 
 
-def run(scene_name, out_dir=None, quiet=False, out=sys.stdout):
+def run(scene_name, out_dir=None, quiet=False, out=None):
     """``geomint run``: run a scene, write ``<name>.npz``, ``<name>.summary.json`` and figures."""
+    out = sys.stdout if out is None else out
     from tqdm import tqdm
 
     from . import plotting
@@ -126,8 +128,9 @@ def _report(summary, paths, out):
         print(f"wrote {path}", file=out)
 
 
-def show(scene_name, out=sys.stdout):
+def show(scene_name, out=None):
     """``geomint show``: the scene fully resolved, as TOML."""
+    out = sys.stdout if out is None else out
     scene = load(scene_name).resolved()
     print(f"# {scene.source}, resolved: {scene.n_trajectories} trajectories x {scene.steps_per_trajectory} steps",
           file=out)
@@ -138,8 +141,9 @@ def show(scene_name, out=sys.stdout):
     return OK
 
 
-def list_all(out=sys.stdout):
+def list_all(out=None):
     """``geomint list``: what scenes can name."""
+    out = sys.stdout if out is None else out
     from .integrators.base import _short_names
 
     print("systems ([system] name):", file=out)

@@ -57,13 +57,15 @@ def _overview(plt, result):
 
 def _trajectories_figure(plt, result):
     fig = plt.figure(figsize=(7.5, 7.0))
+    fig.subplots_adjust(left=0.0, right=0.95, top=0.88, bottom=0.04)
     trajectories(result, fig.add_subplot(projection="3d"))
     fig.suptitle(_title(result), fontsize=11)
     return fig
 
 
 def _invariants_figure(plt, result):
-    fig, (ax_H, ax_S) = plt.subplots(2, 1, figsize=(7.5, 6.0), sharex=True)
+    fig, (ax_H, ax_S) = plt.subplots(2, 1, figsize=(7.5, 6.4), sharex=True)
+    fig.subplots_adjust(top=0.84, hspace=0.3)
     invariants(result, ax_H, ax_S)
     fig.suptitle(_title(result), fontsize=11)
     return fig
