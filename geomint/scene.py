@@ -170,6 +170,9 @@ class Scene:
         for flag in ("hamiltonian", "projection"):
             set_(flag, check.boolean(flag, getattr(self, flag)))
         set_("eps", check.real("eps", self.eps, minimum=0.0))
+        if not self.hamiltonian and self.eps == 0.0:
+            raise SceneError(self.source, "effects",
+                             "every effect is off (hamiltonian = false, eps = 0): there is nothing to simulate.")
         if (self.points is None) == (self.level_set is None):
             raise SceneError(self.source, "initial", "give exactly one of `points` and `level_set`.")
         if self.points is not None:
@@ -307,10 +310,12 @@ class Scene:
 
     @property
     def steps_per_trajectory(self):
+        """Steps ``geomint.solve`` takes for each initial state."""
         return step_count(0.0, self.duration, self.h)
 
     @property
     def n_trajectories(self):
+        """Number of initial states."""
         return len(self.points) if self.points is not None else self.level_set["n"]
 
     def to_dict(self):

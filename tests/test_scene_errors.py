@@ -43,6 +43,8 @@ STATIC = [
     (edit("h = 0.05", "h = inf"), r"`integrator.h`: must be finite; got inf"),
     (edit("duration = 0.5", "duration = nan"), r"`integrator.duration`: must be finite; got nan"),
     (edit("eps = 0.1", "eps = true"), r"`effects.eps`: must be a number; got True \(bool\)"),
+    (edit("eps = 0.1", "eps = 0\nhamiltonian = false"),
+     r"`effects`: every effect is off \(hamiltonian = false, eps = 0\): there is nothing to simulate"),
     (edit("eps = 0.1", "eps = -1.0"), r"`effects.eps`: must be >= 0; got -1.0"),
     (edit("eps = 0.1", "eps = 0.1\nhamiltonian = 1"), r"`effects.hamiltonian`: must be true or false; got 1"),
     (edit("a = 0.5", "a = inf"), r"`system.parameters.a`: must be finite; got inf"),
