@@ -80,20 +80,17 @@ FIGURES = {
     "invariants": "relative energy error and S against t",
 }
 
-_REQUIRED = object()
-
-# section -> key -> (field name, default); "" is the top level
+# section -> key in the file -> Scene field; "" is the top level
 _LAYOUT = {
-    "": {"title": ("title", ""), "description": ("description", "")},
-    "system": {"name": ("system", _REQUIRED), "parameters": ("parameters", {})},
-    "effects": {"hamiltonian": ("hamiltonian", True), "eps": ("eps", 1.0), "projection": ("projection", False)},
-    "initial": {"points": ("points", None), "level_set": ("level_set", None)},
-    "integrator": {"method": ("integrator", "gonzalez"), "h": ("h", _REQUIRED), "duration": ("duration", _REQUIRED)},
-    "output": {"record": ("record", ("x", "H", "S")), "every": ("every", 1), "figures": ("figures", ("overview",)),
-               "view": ("view", (30.0, -60.0)), "sections": ("sections", ())},
+    "": {"title": "title", "description": "description"},
+    "system": {"name": "system", "parameters": "parameters"},
+    "effects": {"hamiltonian": "hamiltonian", "eps": "eps", "projection": "projection"},
+    "initial": {"points": "points", "level_set": "level_set"},
+    "integrator": {"method": "integrator", "h": "h", "duration": "duration"},
+    "output": {"record": "record", "every": "every", "figures": "figures", "view": "view", "sections": "sections"},
 }
 _KEY_OF = {name: (f"{section}.{key}" if section else key) for section, keys in _LAYOUT.items()
-           for key, (name, _) in keys.items()}
+           for key, name in keys.items()}
 _LEVEL_SET_KEYS = ("H0", "n", "center")
 
 
@@ -217,7 +214,7 @@ class Scene:
         fields = {}
         for key, value in data.items():
             if key in _LAYOUT[""]:
-                fields[_LAYOUT[""][key][0]] = value
+                fields[_LAYOUT[""][key]] = value
             elif key in _LAYOUT and key:
                 if not isinstance(value, dict):
                     raise SceneError(source, key, f"must be a table `[{key}]`; got {_describe(value)}.")
@@ -225,14 +222,14 @@ class Scene:
                     if sub not in _LAYOUT[key]:
                         raise SceneError(source, f"{key}.{sub}",
                                          f"unknown key; `[{key}]` takes {_listing(_LAYOUT[key])}.")
-                    fields[_LAYOUT[key][sub][0]] = subvalue
+                    fields[_LAYOUT[key][sub]] = subvalue
             else:
                 known = [k for k in _LAYOUT[""]] + [f"[{k}]" for k in _LAYOUT if k]
                 raise SceneError(source, key, f"unknown key; a scene takes {', '.join(known)}.")
-        for section, keys in _LAYOUT.items():
-            for key, (field_name, default) in keys.items():
-                if default is _REQUIRED and field_name not in fields:
-                    raise SceneError(source, _KEY_OF[field_name], "missing; it is required.")
+        for required in dataclasses.fields(cls):
+            if required.default is dataclasses.MISSING and required.default_factory is dataclasses.MISSING \
+                    and required.name not in fields:
+                raise SceneError(source, _KEY_OF[required.name], "missing; it is required.")
         return cls(**fields, source=source, name=name)
 
     def replace(self, **changes):
@@ -322,7 +319,7 @@ class Scene:
         """The file form: nested sections, ``Scene.from_dict(scene.to_dict()) == scene``."""
         out = {}
         for section, keys in _LAYOUT.items():
-            table = {key: _plain(getattr(self, name)) for key, (name, _) in keys.items()
+            table = {key: _plain(getattr(self, name)) for key, name in keys.items()
                      if getattr(self, name) is not None}
             if section:
                 out[section] = table
