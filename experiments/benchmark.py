@@ -1,0 +1,139 @@
+"""Per-step cost of every geomint method on every catalogue system, as a ratio to compiled RK4.
+
+    PYTHONPATH=. python -m experiments.benchmark [--quick]
+
+A plain script rather than pytest-benchmark/asv: the quantity reported is a
+*ratio measured in one run* (method / RK4 on the same system, same process,
+interleaved), which neither tool reports directly, and the script adds no
+dependency.  Each entry is the median over repeats of ``geomint.solve`` with
+``save_every=None`` (n steps, compiled code only; one warm-up run first).  The
+profile columns count field evaluations and Newton iterations per step and
+time a bare field evaluation of the same system in a compiled loop
+(``compiled.bare_field_loop``).
+"""
+
+import argparse
+import inspect
+import statistics
+import time
+
+import numpy as np
+
+import geomint
+from geomint import systems
+
+from .compiled import bare_field_loop, field_loop_through_pointers
+from .methods import BASELINE_RK4, geomint_methods
+from .report import markdown_table
+from .runs import median_time
+
+#: a generic unit state (no coordinate zero: keeps off the invariant planes of the catalogue)
+X0 = np.array([0.6, 0.48, 0.64])
+H_STEP = 1e-3
+SMALLEST_NORMAL = np.finfo(np.float64).tiny
+
+
+def catalogue():
+    """Every catalogue system built with its default arguments."""
+    built = []
+    for name, build in systems.CATALOGUE.items():
+        if all(p.default is not inspect.Parameter.empty for p in inspect.signature(build).parameters.values()):
+            built.append((name, build()))
+    return built
+
+
+def field_ns(system, n):
+    """ns per field evaluation: inlined (closure) and through first-class function pointers (NaN if not tuple form)."""
+    loop = bare_field_loop(system)
+    loop(X0, 10)
+    inlined, _ = median_time(lambda: loop(X0, n), 5)
+    _, grad_H, _, grad_S, J, params = system.model
+    args = (grad_H, grad_S, J, params, float(system.eps), bool(system.hamiltonian), X0)
+    try:
+        field_loop_through_pointers(*args, 10)
+    except TypeError:
+        return 1e9 * inlined / n, np.nan
+    pointers, _ = median_time(lambda: field_loop_through_pointers(*args, n), 5)
+    return 1e9 * inlined / n, 1e9 * pointers / n
+
+
+def per_step(system, methods, n, repeats):
+    """``{label: (ns/step, field evals/step, Newton iterations/step, subnormal final state)}``.
+
+    Repeats are interleaved across methods (round robin) so that load changes on
+    a shared machine hit every method alike; each entry is the median.
+    """
+    t_span = (0.0, n * H_STEP)
+    times = {m.label: [] for m in methods}
+    solutions = {}
+    for method in methods:
+        geomint.solve(system, X0, (0.0, 4 * H_STEP), H_STEP, method=method.integrator, save_every=None)
+    for _ in range(repeats):
+        for method in methods:
+            start = time.perf_counter()
+            solutions[method.label] = geomint.solve(system, X0, t_span, H_STEP, method=method.integrator, save_every=None)
+            times[method.label].append(time.perf_counter() - start)
+    results = {}
+    for label, solution in solutions.items():
+        x = np.abs(solution.x_final)
+        results[label] = (1e9 * statistics.median(times[label]) / solution.n_steps, solution.nfev / solution.n_steps,
+                          solution.n_newton / solution.n_steps, bool(np.any((x > 0) & (x < SMALLEST_NORMAL))))
+    return results
+
+
+def solve_overhead_ms(system, method):
+    """Median wall time of a one-step ``geomint.solve``: the fixed cost of a call (validation, H(x0), S(x0), dispatch)."""
+    geomint.solve(system, X0, (0.0, H_STEP), H_STEP, method=method.integrator, save_every=None)
+    seconds, _ = median_time(lambda: geomint.solve(system, X0, (0.0, H_STEP), H_STEP, method=method.integrator,
+                                                   save_every=None), 21)
+    return 1e3 * seconds
+
+
+HEADERS = ["system", "method", "ns/step", "x RK4", "field evals/step", "Newton its/step", "field ns inlined",
+           "field ns via pointers", "ns/step / (evals x field ns via pointers)"]
+
+
+def run(quick=False, log=print):
+    """The benchmark table (markdown) and ``{system: {label: (ns/step, ratio to RK4)}}``."""
+    n, repeats = (20_000, 3) if quick else (200_000, 7)
+    methods = geomint_methods()
+    rows, ratios = [], {}
+    for name, system in catalogue():
+        inlined_ns, pointer_ns = field_ns(system, 10 * n)
+        results = per_step(system, methods, n, repeats)
+        base = results.get(BASELINE_RK4, (np.nan,))[0]
+        ratios[name] = {}
+        for label, (ns, evals, newton, subnormal) in results.items():
+            ratios[name][label] = (ns, ns / base)
+            rows.append([name, label + (" (subnormal!)" if subnormal else ""), ns, ns / base, evals, newton, inlined_ns,
+                         pointer_ns, ns / (evals * pointer_ns)])
+        log(f"  benchmark {name} done")
+    name, system = catalogue()[0]
+    overhead = {m.label: solve_overhead_ms(system, m) for m in methods}
+    text = "\n\n".join([
+        "## Per-step cost (benchmark)",
+        f"`PYTHONPATH=. python -m experiments.benchmark{' --quick' if quick else ''}`: median of {repeats} interleaved runs of "
+        f"{n} steps (h = {H_STEP:g}) from x0 = {X0.tolist()}, every catalogue system with its default arguments, "
+        "ratios to compiled RK4 on the same system in the same run. Profile: a field evaluation timed in a compiled "
+        "loop with the user functions inlined, and reached through typed first-class function pointers as the "
+        "library's kernels reach them; the last column is the step cost over the cost of its field evaluations "
+        "through pointers (1 = a step is nothing but field evaluations).",
+        markdown_table(HEADERS, rows),
+        f"Fixed cost of one `geomint.solve` call (one step, {name}), ms: "
+        + ", ".join(f"{label} {ms:.3g}" for label, ms in overhead.items()) + ".",
+    ])
+    return text, ratios
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="fewer steps and repeats")
+    args = parser.parse_args(argv)
+    start = time.perf_counter()
+    text, _ = run(args.quick)
+    print(text)
+    print(f"\n({time.perf_counter() - start:.0f} s)")
+
+
+if __name__ == "__main__":
+    main()
