@@ -1,6 +1,7 @@
 """The test problems: systems from the catalogue, initial states, horizons and known answers.
 
 Known answers:
+- the free rigid body (R1) by Jacobi elliptic functions (``free_rigid_body_exact``);
 - the dissipative oscillator with ``S = c z^2`` has a closed-form solution for any
   eps (``oscillator_exact``, derived below);
 - a relaxing rigid body relaxes to the pole on the axis of its largest
@@ -66,6 +67,39 @@ def oscillator_exact(x0, coefficient, eps, t):
     return np.stack([rho * np.cos(theta), rho * np.sin(theta), z], axis=-1)
 
 
+def free_rigid_body_exact(x0, coefficients, t):
+    """Exact free rigid body (eps = 0) by Jacobi elliptic functions, for R1-like data.
+
+    Celledoni, Fasso, Safstrom, Zanna, SIAM J. Sci. Comput. 30 (2008) 2084,
+    doi:10.1137/070704393 (REFERENCES.md R1).  Inertias ``I = 1/coefficients``
+    with ``I_0 > I_1 > I_2``, energy ``E2 = 2H``, ``M^2 = |m|^2 < E2 I_1`` (so
+    A1 = I_0, A3 = I_2) and ``x0 = (alpha, 0, gamma)``, alpha, gamma > 0 (the
+    elliptic phase starts at 0).  With ``u = omega t``:
+
+        m = (alpha cn(u | k^2), beta sn(u | k^2), gamma dn(u | k^2)),
+
+    ``beta = sqrt((E2 A3 - M^2) I_m / (A3 - I_m))``, the sign + because geomint's
+    field ``grad H x m`` gives ``dm_1/dt(0) = m_0 m_2 (c - a) > 0``.  u is reduced
+    modulo the period 4K before ``scipy.special.ellipj``.
+    """
+    from scipy.special import ellipj, ellipk
+
+    x0 = np.asarray(x0, dtype=np.float64)
+    A1, Im, A3 = (1.0 / np.asarray(coefficients, dtype=np.float64)).tolist()
+    if not (A1 > Im > A3 and x0[1] == 0.0 and x0[0] > 0.0 and x0[2] > 0.0):
+        raise ValueError(f"free_rigid_body_exact needs I_0 > I_1 > I_2 and x0 = (alpha > 0, 0, gamma > 0); got {x0}.")
+    M2 = float(x0 @ x0)
+    E2 = float(np.sum(x0 * x0 / np.array([A1, Im, A3])))
+    if not M2 < E2 * Im:
+        raise ValueError(f"free_rigid_body_exact needs |m|^2 < 2 H I_1; got {M2} >= {E2 * Im}.")
+    k2 = (Im - A1) * (E2 * A3 - M2) / ((A3 - Im) * (M2 - E2 * A1))
+    omega = np.sqrt((A3 - Im) * (M2 - E2 * A1) / (A1 * Im * A3))
+    beta = np.sqrt((E2 * A3 - M2) * Im / (A3 - Im))
+    u = np.mod(omega * np.asarray(t, dtype=np.float64), 4.0 * ellipk(k2))
+    sn, cn, dn, _ = ellipj(u, k2)
+    return np.stack([x0[0] * cn, beta * sn, x0[2] * dn], axis=-1)
+
+
 def rigid_body_attractor(system, x0):
     """The pole a (quartic) rigid body relaxes to: on the axis of the largest coefficient, same sign as x0.
 
@@ -89,7 +123,8 @@ def rigid_body_attractor(system, x0):
 def free_rigid_body():
     """REFERENCES.md R1: the free rigid body (eps = 0)."""
     system = systems.relaxing_rigid_body(*INERTIA, eps=0.0)
-    return Problem("free_rigid_body", "free rigid body (R1, eps = 0)", system, RIGID_BODY_X0)
+    return Problem("free_rigid_body", "free rigid body (R1, eps = 0)", system, RIGID_BODY_X0,
+                   exact=lambda t: free_rigid_body_exact(RIGID_BODY_X0, INERTIA, t))
 
 
 def relaxing_rigid_body(eps):

@@ -98,3 +98,13 @@ def test_quick_drift_on_the_relaxing_body_separates_the_methods():
     assert all(run.t_reached > 0 and run.nfev > 0 for run in runs.values())
     rows = drift.table_rows(problem, runs.values(), settings)
     assert len(rows) == len(runs) and all(len(row) == len(drift.HEADERS) for row in rows)
+
+
+def test_free_rigid_body_closed_form_matches_a_tight_solve_and_the_published_period():
+    problem = problems.free_rigid_body()
+    solution = scipy_solution(problem.system, problem.x0, (0.0, 30.0), "DOP853", 1e-12)
+    assert np.max(np.abs(problem.exact(solution.t) - solution.x)) < 1e-10
+    period = 10.7314652348828  # REFERENCES.md R1
+    assert np.max(np.abs(problem.exact(np.array([period, 7 * period])) - problem.x0)) < 1e-12
+    with pytest.raises(ValueError, match="x0 = "):
+        problems.free_rigid_body_exact([0.6, 0.1, 0.8], problems.INERTIA, 1.0)
