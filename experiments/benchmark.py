@@ -89,6 +89,28 @@ def solve_overhead_ms(system, method):
     return 1e3 * seconds
 
 
+#: user-function calls per RK4 step: 4 fields (grad H, J if the Hamiltonian part is on, grad S if eps != 0) + H + S
+EFFECTS = {"full field": {}, "eps = 0 (no grad S)": {"eps": 0.0}, "gradient part only (no J)": {"hamiltonian": False}}
+
+
+def pointer_call_profile(system, methods, n, repeats):
+    """Per-step cost with parts of the field switched off (``system.with_effects``).
+
+    Returns rows ``(variant, user-function calls per RK4 step, {label: ns/step})``
+    and the least-squares slope and intercept of RK4's ns/step against its calls:
+    the marginal cost of one call through a function pointer and the rest of a step.
+    """
+    rows = []
+    for variant, switches in EFFECTS.items():
+        reduced = system.with_effects(**switches)
+        calls = 4 * (1 + (reduced.eps != 0.0) + reduced.hamiltonian) + 2
+        rows.append((variant, calls, {k: v[0] for k, v in per_step(reduced, methods, n, repeats).items()}))
+    calls = np.array([r[1] for r in rows], dtype=float)
+    rk4 = np.array([r[2].get(BASELINE_RK4, np.nan) for r in rows])
+    slope, intercept = np.polyfit(calls, rk4, 1) if np.all(np.isfinite(rk4)) else (np.nan, np.nan)
+    return rows, slope, intercept
+
+
 HEADERS = ["system", "method", "ns/step", "x RK4", "field evals/step", "Newton its/step", "field ns inlined",
            "field ns via pointers", "ns/step / (evals x field ns via pointers)"]
 
@@ -110,6 +132,10 @@ def run(quick=False, log=print):
         log(f"  benchmark {name} done")
     name, system = catalogue()[0]
     overhead = {m.label: solve_overhead_ms(system, m) for m in methods}
+    profile, slope, intercept = pointer_call_profile(system, methods, n, repeats)
+    labels = [m.label for m in methods]
+    profile_table = markdown_table(["field on " + name, "user-function calls per RK4 step"] + [f"{l} ns/step" for l in labels],
+                                   [[variant, calls] + [ns.get(l) for l in labels] for variant, calls, ns in profile])
     text = "\n\n".join([
         "## Per-step cost (benchmark)",
         f"`PYTHONPATH=. python -m experiments.benchmark{' --quick' if quick else ''}`: median of {repeats} interleaved runs of "
@@ -121,6 +147,11 @@ def run(quick=False, log=print):
         markdown_table(HEADERS, rows),
         f"Fixed cost of one `geomint.solve` call (one step, {name}), ms: "
         + ", ".join(f"{label} {ms:.3g}" for label, ms in overhead.items()) + ".",
+        "Where a step's time goes: the same system with parts of the field switched off "
+        "(`system.with_effects`), so that an RK4 step makes fewer calls of user functions through function pointers. "
+        (f"Fitted over the RK4 column: {slope:.3g} ns per call, {intercept:.3g} ns per step besides the calls."
+         if slope > 0 else "In this run the timing noise exceeded the effect (fitted slope <= 0); rerun on a quiet machine."),
+        profile_table,
     ])
     return text, ratios
 

@@ -3,8 +3,8 @@
     PYTHONPATH=. python -m experiments.long_run [--steps 1e8] [--eps 1e-4] [--h 0.01]
 
 Runs in a fresh process (``measure`` starts one) so the peak resident memory is
-this run's: ``ru_maxrss`` after importing geomint and compiling (baseline) and
-after the run.  eps = 1e-4, h = 0.01 (t = 1e6) keeps the decaying components
+this run's: VmHWM after importing geomint and compiling (baseline) and after
+the run.  eps = 1e-4, h = 0.01 (t = 1e6) keeps the decaying components
 of the state in the normal range (eps = 1e-3 drives them to ~1e-321, and
 subnormal arithmetic is much slower: ``subnormal_penalty`` measures it).
 """
@@ -29,7 +29,16 @@ SMALLEST_NORMAL = np.finfo(np.float64).tiny
 
 
 def _peak_mb():
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    """This process's peak resident memory (VmHWM).
+
+    Not ``ru_maxrss``: Linux carries that across fork+exec, so a child started
+    by a large parent would report the parent's size.
+    """
+    try:
+        with open("/proc/self/status") as status:
+            return next(int(line.split()[1]) for line in status if line.startswith("VmHWM")) / 1024.0
+    except (OSError, StopIteration):
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def _gonzalez():
