@@ -31,6 +31,8 @@ from .runs import median_time
 X0 = np.array([0.6, 0.48, 0.64])
 H_STEP = 1e-3
 SMALLEST_NORMAL = np.finfo(np.float64).tiny
+#: target seconds of one timed run (expensive methods take fewer steps)
+RUN_SECONDS = 0.15
 
 
 def catalogue():
@@ -57,19 +59,28 @@ def field_ns(system, n):
     return 1e9 * inlined / n, 1e9 * pointers / n
 
 
-def per_step(system, methods, n, repeats):
+def per_step(system, methods, n, repeats, run_seconds=None):
     """``{label: (ns/step, field evals/step, Newton iterations/step, subnormal final state)}``.
 
-    Repeats are interleaved across methods (round robin) so that load changes on
-    a shared machine hit every method alike; each entry is the median.
+    Each method takes ``n`` steps, or fewer (down to n/20) where a calibration
+    run shows that n would take more than ``run_seconds`` (a 15-stage composition
+    costs 15 steps of its base method), so the benchmark's time stays bounded as
+    methods are added.  Repeats are interleaved across methods (round robin) so
+    that load changes on a shared machine hit every method alike; each entry is
+    the median.
     """
-    t_span = (0.0, n * H_STEP)
+    run_seconds = RUN_SECONDS if run_seconds is None else run_seconds
     times = {m.label: [] for m in methods}
-    solutions = {}
+    solutions, steps = {}, {}
     for method in methods:
         geomint.solve(system, X0, (0.0, 4 * H_STEP), H_STEP, method=method.integrator, save_every=None)
+        start = time.perf_counter()
+        geomint.solve(system, X0, (0.0, n // 20 * H_STEP), H_STEP, method=method.integrator, save_every=None)
+        per_run = 20 * (time.perf_counter() - start)
+        steps[method.label] = max(n // 20, min(n, int(n * run_seconds / per_run)))
     for _ in range(repeats):
         for method in methods:
+            t_span = (0.0, steps[method.label] * H_STEP)
             start = time.perf_counter()
             solutions[method.label] = geomint.solve(system, X0, t_span, H_STEP, method=method.integrator, save_every=None)
             times[method.label].append(time.perf_counter() - start)
@@ -134,12 +145,14 @@ def run(quick=False, log=print):
     overhead = {m.label: solve_overhead_ms(system, m) for m in methods}
     profile, slope, intercept = pointer_call_profile(system, methods, n, repeats)
     labels = [m.label for m in methods]
-    profile_table = markdown_table(["field on " + name, "user-function calls per RK4 step"] + [f"{l} ns/step" for l in labels],
-                                   [[variant, calls] + [ns.get(l) for l in labels] for variant, calls, ns in profile])
+    profile_table = markdown_table(
+        ["field on " + name, "user-function calls per RK4 step"] + [f"{label} ns/step" for label in labels],
+        [[variant, calls] + [ns.get(label) for label in labels] for variant, calls, ns in profile])
     text = "\n\n".join([
         "## Per-step cost (benchmark)",
         f"`PYTHONPATH=. python -m experiments.benchmark{' --quick' if quick else ''}`: median of {repeats} interleaved runs of "
-        f"{n} steps (h = {H_STEP:g}) from x0 = {X0.tolist()}, every catalogue system with its default arguments, "
+        f"up to {n} steps of h = {H_STEP:g} (fewer where that would take over {RUN_SECONDS:g} s) from x0 = "
+        f"{X0.tolist()}, every catalogue system with its default arguments, "
         "ratios to compiled RK4 on the same system in the same run. Profile: a field evaluation timed in a compiled "
         "loop with the user functions inlined, and reached through typed first-class function pointers as the "
         "library's kernels reach them; the last column is the step cost over the cost of its field evaluations "
