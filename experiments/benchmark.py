@@ -25,7 +25,7 @@ from geomint import systems
 from .compiled import bare_field_loop, field_loop_through_pointers
 from .methods import BASELINE_RK4, geomint_methods
 from .report import markdown_table
-from .runs import median_time
+from .runs import median_time, not_applicable
 
 #: a generic unit state (no coordinate zero: keeps off the invariant planes of the catalogue)
 X0 = np.array([0.6, 0.48, 0.64])
@@ -60,7 +60,10 @@ def field_ns(system, n):
 
 
 def per_step(system, methods, n, repeats, run_seconds=None):
-    """``{label: (ns/step, field evals/step, Newton iterations/step, subnormal final state)}``.
+    """``{label: (ns/step, field evals/step, Newton iterations/step, note)}``.
+
+    The note flags a final state with subnormal components (slow arithmetic) or
+    a run that failed before its last step.
 
     Each method takes ``n`` steps, or fewer (down to n/20) where a calibration
     run shows that n would take more than ``run_seconds`` (a 15-stage composition
@@ -70,13 +73,14 @@ def per_step(system, methods, n, repeats, run_seconds=None):
     the median.
     """
     run_seconds = RUN_SECONDS if run_seconds is None else run_seconds
+    methods = [m for m in methods if not_applicable(m.integrator, system, X0) is None]
     times = {m.label: [] for m in methods}
     solutions, steps = {}, {}
     for method in methods:
         geomint.solve(system, X0, (0.0, 4 * H_STEP), H_STEP, method=method.integrator, save_every=None)
         start = time.perf_counter()
         geomint.solve(system, X0, (0.0, n // 20 * H_STEP), H_STEP, method=method.integrator, save_every=None)
-        per_run = 20 * (time.perf_counter() - start)
+        per_run = max(20 * (time.perf_counter() - start), 1e-9)
         steps[method.label] = max(n // 20, min(n, int(n * run_seconds / per_run)))
     for _ in range(repeats):
         for method in methods:
@@ -86,9 +90,13 @@ def per_step(system, methods, n, repeats, run_seconds=None):
             times[method.label].append(time.perf_counter() - start)
     results = {}
     for label, solution in solutions.items():
+        if solution.n_steps == 0:
+            continue
         x = np.abs(solution.x_final)
+        note = " (subnormal state!)" if np.any((x > 0) & (x < SMALLEST_NORMAL)) else ""
+        note += "" if solution.success else f" (failed at step {solution.failed_step})"
         results[label] = (1e9 * statistics.median(times[label]) / solution.n_steps, solution.nfev / solution.n_steps,
-                          solution.n_newton / solution.n_steps, bool(np.any((x > 0) & (x < SMALLEST_NORMAL))))
+                          solution.n_newton / solution.n_steps, note)
     return results
 
 
@@ -136,9 +144,9 @@ def run(quick=False, log=print):
         results = per_step(system, methods, n, repeats)
         base = results.get(BASELINE_RK4, (np.nan,))[0]
         ratios[name] = {}
-        for label, (ns, evals, newton, subnormal) in results.items():
+        for label, (ns, evals, newton, note) in results.items():
             ratios[name][label] = (ns, ns / base)
-            rows.append([name, label + (" (subnormal!)" if subnormal else ""), ns, ns / base, evals, newton, inlined_ns,
+            rows.append([name, label + note, ns, ns / base, evals, newton, inlined_ns,
                          pointer_ns, ns / (evals * pointer_ns)])
         log(f"  benchmark {name} done")
     name, system = catalogue()[0]

@@ -17,7 +17,7 @@ import numpy as np
 from . import problems
 from .methods import SCIPY_DRIFT, geomint_methods
 from .report import figure, markdown_table, save
-from .runs import Windows, geomint_chunks, growth_law, long_run, scipy_chunks
+from .runs import Windows, geomint_chunks, growth_law, long_run, not_applicable, scipy_chunks
 
 
 @dataclass(frozen=True)
@@ -68,6 +68,9 @@ def run_problem(problem, settings, methods, log=print):
     runs = []
     compiled_end = settings.t_end * settings.compiled_factor.get(problem.name, 1.0)
     for method in methods:
+        if (reason := not_applicable(method.integrator, problem.system, problem.x0)) is not None:
+            log(f"  {problem.name} {method.label}: skipped ({reason})")
+            continue
         windows = Windows.log_spaced(1.0, compiled_end, settings.windows)
         chunks = geomint_chunks(problem, method.integrator, compiled_end, settings.h)
         budget = settings.compiled_budget_for(len(methods))

@@ -23,6 +23,19 @@ ATOL_FRACTION = 1e-3
 CHUNK_STEPS = 250_000
 
 
+def not_applicable(method, system, x0, h=1e-3):
+    """Why ``method`` cannot run on ``system`` (the error of a one-step solve), or None when it can.
+
+    Methods may support only some systems (a splitting may need an exact
+    sub-flow); experiments skip those and say so instead of stopping.
+    """
+    try:
+        geomint.solve(system, x0, (0.0, h), h, method=method, save_every=None)
+    except (ValueError, TypeError, NotImplementedError) as error:
+        return f"{type(error).__name__}: {error}"
+    return None
+
+
 def median_time(run, repeats, budget=2.0):
     """Median wall time of ``run()`` over ``repeats`` calls (fewer when one call exceeds ``budget`` s).
 

@@ -21,7 +21,7 @@ from . import problems
 from .compiled import scipy_rhs
 from .methods import BASELINE_RK4, BASELINE_SCIPY, SCIPY_SWEEP, geomint_methods
 from .report import figure, markdown_table, save
-from .runs import median_time, scipy_solution
+from .runs import median_time, not_applicable, scipy_solution
 
 TARGETS = (1e-4, 1e-8, 1e-12)
 TIGHTEST_RTOL = 2.5e-14
@@ -173,7 +173,8 @@ def plot(problem, curves, uncertainty, axes):
 
 def run_problem(problem, settings, methods, log=print):
     x_ref, uncertainty, note = reference(problem, settings.t_end)
-    curves = [geomint_curve(problem, m, settings, x_ref) for m in methods]
+    curves = [geomint_curve(problem, m, settings, x_ref) for m in methods
+              if not_applicable(m.integrator, problem.system, problem.x0) is None]
     log(f"  {problem.name}: geomint sweeps done")
     rhs = scipy_rhs(problem.system)
     rhs(0.0, problem.x0)

@@ -9,7 +9,7 @@ import geomint
 from experiments import drift, problems
 from experiments.compiled import fixed_point_gonzalez
 from experiments.methods import geomint_methods
-from experiments.runs import Windows, growth_law, scipy_solution
+from experiments.runs import Windows, growth_law, not_applicable, scipy_solution
 from experiments.work_precision import cost_to_reach
 
 
@@ -108,3 +108,9 @@ def test_free_rigid_body_closed_form_matches_a_tight_solve_and_the_published_per
     assert np.max(np.abs(problem.exact(np.array([period, 7 * period])) - problem.x0)) < 1e-12
     with pytest.raises(ValueError, match="x0 = "):
         problems.free_rigid_body_exact([0.6, 0.1, 0.8], problems.INERTIA, 1.0)
+
+
+def test_not_applicable_names_the_error_of_a_method_that_cannot_run():
+    problem = problems.relaxing_rigid_body(eps=0.1)
+    assert not_applicable(geomint.RK4(), problem.system, problem.x0) is None
+    assert not_applicable(geomint.Integrator(), problem.system, problem.x0).startswith("NotImplementedError")
