@@ -18,9 +18,12 @@ each_method = pytest.mark.parametrize("method", METHODS, ids=lambda m: m.name)
 
 
 def _exact_run(sol):
-    """A run that kept H to round-off and never raised S beyond it, and has no NaN."""
+    """No NaN; every saved step kept H to 64 ulp of H0 (16 ulp of terms up to 4 |H|) and did not raise S
+    beyond round-off; the whole run drifted less than 1e-13."""
     assert np.all(np.isfinite(sol.x)) and np.all(np.isfinite(sol.H)) and np.all(np.isfinite(sol.S))
-    assert sol.energy_error <= 64 * EPS, sol.energy_error
+    if len(sol.H) > 1:
+        assert np.max(np.abs(np.diff(sol.H))) <= 64 * EPS * abs(sol.H[0]), np.max(np.abs(np.diff(sol.H)))
+    assert sol.energy_error <= 1e-13, sol.energy_error
     assert sol.S_rises == 0
 
 
@@ -130,11 +133,14 @@ def test_stiff_relaxation(method):
 
 @each_method
 def test_equal_coefficients_circle_of_equilibria(method):
-    """b = c: every point of the circle {x = 0} is an equilibrium: no motion along it at all."""
+    """b = c: every point of the circle {x = 0} is an equilibrium: no motion beyond round-off, no drift.
+
+    (The field there is zero only up to the rounding of ``b y z - c z y``: the state moves by an ulp.)"""
     body = geomint.systems.relaxing_rigid_body(0.5, 1.5, 1.5, eps=1.0)
     x0 = np.array([0.0, 0.6, 0.8])
     sol = geomint.solve(body, x0, (0.0, 50.0), 0.1, method=method)
-    assert np.all(sol.x == x0)
+    assert sol.success, sol.message
+    assert np.max(np.abs(sol.x - x0)) <= 4 * EPS
 
 
 @each_method

@@ -107,19 +107,22 @@ def _at_round_off(f_old, f_new, gradient, size, rising_only):
 
 @njit(inline="always")
 def damping_factor(grad_H, grad_S, J, params, eps, buf, x, h):
-    """``phi = 1 / sqrt(1 + (h kappa / 2)^2)``, ``kappa = eps |D xi_g(x)|_inf`` (4 gradient calls).
+    """``phi = 1 / sqrt(1 + (h kappa / 2)^2)``, ``kappa = |D (eps xi_g)(x)|_inf`` (4 gradient calls).
+
+    ``eps xi_g`` is differentiated as a whole, so that ``eps`` scales the
+    product before it can underflow (states of size 1e-150 with eps ~ 1e150).
 
     Multiplying the dissipation by ``phi`` (still exact in H, monotone in S)
     makes the midpoint-type step damp a dissipative mode of rate ``lambda ~ kappa``
     by ``(1 - w) / (1 + w)``, ``w = (h lambda / 2) phi -> 1`` as ``h kappa -> oo``,
     instead of reflecting it; ``phi = 1 + O(h^2)`` keeps order 2.
     """
-    g0 = field(grad_H, grad_S, J, params, 1.0, False, buf, x)
-    c0, c1, c2 = _jacobian(grad_H, grad_S, J, params, 1.0, False, buf, x, g0)
+    g0 = field(grad_H, grad_S, J, params, eps, False, buf, x)
+    c0, c1, c2 = _jacobian(grad_H, grad_S, J, params, eps, False, buf, x, g0)
     row_sum = max(
         abs(c0[0]) + abs(c1[0]) + abs(c2[0]), abs(c0[1]) + abs(c1[1]) + abs(c2[1]), abs(c0[2]) + abs(c1[2]) + abs(c2[2])
     )
-    z = 0.5 * h * abs(eps) * row_sum
+    z = 0.5 * h * row_sum
     if not np.isfinite(z):
         return 1.0
     return 1.0 / np.sqrt(1.0 + z * z)
