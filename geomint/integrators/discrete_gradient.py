@@ -120,7 +120,8 @@ class ItohAbe(DiscreteGradient):
 
         dgF_i = [F(x'_1..x'_i, x_{i+1}..x_3) - F(x'_1..x'_{i-1}, x_i..x_3)] / (x'_i - x_i).
 
-    Order 1, not symmetric.  A coordinate that does not move (0/0) or moves
+    Order 1, not symmetric (for H and S that are sums of functions of one
+    coordinate each it is symmetric, hence order 2).  A coordinate that does not move (0/0) or moves
     less than ``SWITCH |x|`` takes the partial derivative at the midpoint of its
     edge (``geomint._kernels.discrete_gradient``).  Reference: T. Itoh, K. Abe,
     Hamiltonian-conserving discrete canonical equations based on variational
