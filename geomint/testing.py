@@ -14,10 +14,11 @@ Requires ``hypothesis`` (``pip install geomint[test]``).
 """
 
 import numpy as np
-from hypothesis import reject
+from hypothesis import assume, reject
 from hypothesis import strategies as st
 
 from . import systems as _catalogue
+from .integrators.base import _short_names, resolve
 from .solve import solve
 
 EPS = np.finfo(np.float64).eps
@@ -32,6 +33,33 @@ def states(bound=2.0, min_norm=1e-2):
         .map(lambda t: np.array(t, dtype=np.float64))
         .filter(lambda x: np.linalg.norm(x) >= min_norm)
     )
+
+
+def level_set_states(system, level, radius=1e3):
+    """States ``x`` with ``H(x) = level``: a random direction ``u``, then ``x = r u`` with
+    ``H(r u) = level`` solved by bisection on ``0 < r <= radius``.
+
+    Needs ``H(0) < level`` and H increasing along the ray up to its crossing
+    (true for the catalogue); directions without a crossing are rejected by
+    ``assume``.  ``H(x)`` matches ``level`` to a few ulp.
+    """
+    coordinate = st.floats(-1.0, 1.0, allow_nan=False)
+    directions = st.tuples(coordinate, coordinate, coordinate).map(np.array).filter(lambda u: np.linalg.norm(u) >= 1e-3)
+    return directions.map(lambda u: _on_ray(system, level, u / np.linalg.norm(u), radius))
+
+
+def _on_ray(system, level, unit, radius):
+    low, high = 0.0, radius
+    assume(system.H(low * unit) < level < system.H(high * unit))
+    for _ in range(200):
+        middle = 0.5 * (low + high)
+        if middle in (low, high):
+            break
+        if system.H(middle * unit) < level:
+            low = middle
+        else:
+            high = middle
+    return high * unit
 
 
 def step_sizes(low=1e-3, high=0.5):
@@ -49,10 +77,27 @@ def catalogue_systems(eps=st.floats(0.0, 5.0)):
     quartic = st.builds(
         _catalogue.quartic_rigid_body, _coefficient(), _coefficient(), _coefficient(), st.floats(0.0, 2.0), eps=eps
     )
-    polynomial = st.lists(st.floats(-2.0, 2.0), min_size=2, max_size=5)
+    # coefficients on a grid of 0.1: tiny nonzero ones fail the constructor's finite-difference check
+    polynomial = st.lists(st.integers(-20, 20).map(lambda k: k / 10), min_size=2, max_size=5)
     oscillator = st.builds(_catalogue.dissipative_oscillator, polynomial, eps=eps)
     degenerate = st.builds(_catalogue.degenerate_example, st.sampled_from([1, 2]), eps=eps)
     return st.one_of(rigid, quartic, oscillator, degenerate)
+
+
+def catalogue_examples():
+    """One instance of every catalogue system with its default parameters (both degenerate examples)."""
+    return [
+        _catalogue.relaxing_rigid_body(),
+        _catalogue.quartic_rigid_body(),
+        _catalogue.dissipative_oscillator(),
+        _catalogue.degenerate_example(1),
+        _catalogue.degenerate_example(2),
+    ]
+
+
+def structure_preserving_methods():
+    """Every registered integrator that declares ``energy_exact`` and ``dissipative``, with default options."""
+    return [cls() for name, cls in sorted(_short_names().items()) if cls.energy_exact and cls.dissipative]
 
 
 # -- one step and its invariants ----------------------------------------------------------
@@ -64,9 +109,11 @@ def one_step(system, method, x, h, allow_failure=False):
     far beyond the problem's time scale, which an implicit method may refuse.
     """
     sol = solve(system, x, (0.0, h), h, method=method)
-    if allow_failure and not sol.success:
+    if allow_failure and not sol.success:  # a reported failure is allowed; a silent NaN is not
+        assert sol.status in (-1, -2) and "Step 1 " in sol.message and np.all(sol.x == x), sol.message
         reject()
     assert sol.success, sol.message
+    assert np.all(np.isfinite(sol.x[-1])), f"non-finite state {sol.x[-1].tolist()} reported as success"
     return sol.x[-1]
 
 
@@ -109,6 +156,33 @@ def assert_step_invariants(system, method, x, h, ulps=16, allow_failure=False):
 
 
 # -- orders ---------------------------------------------------------------------------------
+def reference_solution(system, x0, t_end, rtol=1e-13, atol=1e-15):
+    """``x(t_end)`` by scipy's DOP853 at tight tolerances (structure-blind, for order checks)."""
+    from scipy.integrate import solve_ivp
+
+    result = solve_ivp(
+        lambda t, x: system.xi(x), (0.0, t_end), np.asarray(x0, dtype=float), method="DOP853", rtol=rtol, atol=atol
+    )
+    assert result.success, result.message
+    return result.y[:, -1]
+
+
+def measured_order(system, method, x0, t_end, step_sizes, reference=None, floor=1e-13):
+    """Observed order of ``method`` on ``system`` from ``x0`` to ``t_end``: the slope of the
+    final-state error against ``h`` (see ``observed_order``), against ``reference``
+    (default: ``reference_solution``).  Returns ``(order, errors)``.
+    """
+    method = resolve(method)
+    reference = reference_solution(system, x0, t_end) if reference is None else np.asarray(reference)
+    errors = []
+    for h in step_sizes:
+        sol = solve(system, x0, (0.0, t_end), h, method=method, save_every=None)
+        assert sol.success, sol.message
+        errors.append(float(np.max(np.abs(sol.x_final - reference)) / np.max(np.abs(reference))))
+    return observed_order(step_sizes, errors, floor), errors
+
+
+
 def observed_order(step_sizes, errors, floor=1e-13):
     """Least-squares slope of ``log error`` against ``log h``, round-off plateau excluded.
 

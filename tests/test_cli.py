@@ -41,7 +41,7 @@ def test_run_writes_data_summary_and_figures(tmp_path, capsys):
     assert summary["totals"]["max_energy_error"] < 1e-14
     assert summary["totals"]["n_newton"] > 0 and summary["totals"]["wall_s"] > 0
     assert set(summary["versions"]) == {"geomint", "python", "numpy", "scipy", "numba"}
-    assert summary["scene"]["integrator"]["method"] == {"name": "gonzalez", "max_newton_iter": 50}
+    assert summary["scene"]["integrator"]["method"] == {"name": "gonzalez", "max_newton_iter": 50, "compensated": True}
     for figure in ("overview", "invariants", "trajectories"):
         png = out / f"short.{figure}.png"
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000

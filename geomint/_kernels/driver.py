@@ -5,7 +5,7 @@ from numba import njit, types
 
 from .signatures import f64, i64, ivec, mat, model_kernel, vec
 from .steps import NON_FINITE, OK, step
-from .vec3 import is_finite
+from .vec3 import flush_tiny, is_finite, load, same
 
 # counters layout (int64 array shared with geomint.solve)
 STEPS = 0
@@ -46,8 +46,14 @@ def integrate(
     one are written to row ``counters[ROWS]`` of the outputs.  A failed step
     stops the loop with the last good state saved and ``counters[STATUS]``,
     ``counters[FAILED_STEP]`` set; ``residual[0]`` holds the last Newton
-    correction.  Caller: ``geomint.solve`` (chunks of steps for progress
-    reporting); it has validated every argument.
+    correction.
+
+    Components below ``FLUSH * |x|_inf`` are set to zero after each step
+    (``vec3.flush_tiny``), so decaying components never reach the slow
+    subnormal range.
+
+    Caller: ``geomint.solve`` (chunks of steps for progress reporting); it has
+    validated every argument.
     """
     buf = np.empty(3)
     x = (state[0], state[1], state[2])
@@ -75,7 +81,12 @@ def integrate(
             if k % save_every != 0:
                 _save(out_t, out_x, out_H, out_S, counters, t0 + k * h, x, H_x, S_x)
             break
-        x, comp, H_x, S_x = x_new, comp_new, H_new, S_new
+        x, comp = flush_tiny(x_new, comp_new)
+        if same(x, x_new):
+            H_x, S_x = H_new, S_new
+        else:
+            load(buf, x)
+            H_x, S_x = H(buf, params), S(buf, params)
         counters[STEPS] += 1
         if (k + 1) % save_every == 0 or k + 1 == n_steps:
             t = t0 + (k + 1) * h if k + 1 < n_steps else t0 + (n_steps - 1) * h + h_last

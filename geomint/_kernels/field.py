@@ -13,7 +13,7 @@ import numpy as np
 from numba import njit, types
 
 from .signatures import mat, model_kernel, vec
-from .vec3 import as_vector, axpy, cross, load
+from .vec3 import as_vector, axpy, cross, load, norm_inf
 
 
 @njit(inline="always")
@@ -32,8 +32,20 @@ ZERO = (0.0, 0.0, 0.0)
 
 @njit(inline="always")
 def dissipative(grad_h, grad_s, eps, base):
-    """``base + eps * grad_h x (grad_h x grad_s)``."""
-    return axpy(eps, cross(grad_h, cross(grad_h, grad_s)), base)
+    """``base + eps * grad_h x (grad_h x grad_s)``.
+
+    Evaluated as ``((eps a) (a b)) u x (u x v)`` with ``a, b`` the largest
+    components of grad_h, grad_s and ``u, v`` the scaled vectors, so the
+    triple product neither underflows nor overflows where the result does not
+    (states of size 1e-150 or 1e100).
+    """
+    a = norm_inf(grad_h)
+    b = norm_inf(grad_s)
+    if a == 0.0 or b == 0.0 or not (np.isfinite(a) and np.isfinite(b)):
+        return axpy(eps, cross(grad_h, cross(grad_h, grad_s)), base)
+    u = (grad_h[0] / a, grad_h[1] / a, grad_h[2] / a)
+    v = (grad_s[0] / b, grad_s[1] / b, grad_s[2] / b)
+    return axpy((eps * a) * (a * b), cross(u, cross(u, v)), base)
 
 
 @njit(inline="always")

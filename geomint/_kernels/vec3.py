@@ -90,3 +90,29 @@ def _as_vector(v):
     if isinstance(v, types.Array) and v.ndim == 2:
         return lambda v: (v[1, 2], -v[0, 2], v[0, 1])
     return lambda v: (v[0], v[1], v[2])
+
+
+@njit(inline="always")
+def same(u, v):
+    """Bitwise-equal components (``-0.0 == 0.0``)."""
+    return u[0] == v[0] and u[1] == v[1] and u[2] == v[2]
+
+
+#: Components below ``FLUSH * |x|_inf`` are flushed to zero: 2^-200 ~ 6e-61 is
+#: far below an ulp of ``|x|``, so H and S change by less than ~1e-44 ulp, and
+#: products of a few such components stay above the subnormal range, whose
+#: arithmetic is about 10x slower on x86.
+FLUSH = 2.0**-200
+
+
+@njit(inline="always")
+def flush_tiny(u, carry):
+    """``u`` with components ``|u_i| <= FLUSH * |u|_inf`` set to 0, and ``carry`` zeroed there too."""
+    limit = FLUSH * norm_inf(u)
+    keep0 = abs(u[0]) > limit
+    keep1 = abs(u[1]) > limit
+    keep2 = abs(u[2]) > limit
+    return (
+        (u[0] if keep0 else 0.0, u[1] if keep1 else 0.0, u[2] if keep2 else 0.0),
+        (carry[0] if keep0 else 0.0, carry[1] if keep1 else 0.0, carry[2] if keep2 else 0.0),
+    )

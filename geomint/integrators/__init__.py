@@ -5,7 +5,9 @@ engine in ``geomint._kernels``.
 """
 
 from .base import Integrator, resolve
-from .discrete_gradient import Gonzalez
+from .discrete_gradient import AVF, DampedGonzalez, DiscreteGradient, Gonzalez, ItohAbe, SymmetrizedItohAbe
 from .runge_kutta import RK4
 
-__all__ = ["Gonzalez", "Integrator", "RK4", "resolve"]
+__all__ = [
+    "AVF", "DampedGonzalez", "DiscreteGradient", "Gonzalez", "Integrator", "ItohAbe", "RK4", "SymmetrizedItohAbe", "resolve",
+]

@@ -60,5 +60,12 @@ def resolve(method):
 def _short_names():
     from . import discrete_gradient, runge_kutta
 
-    classes = (discrete_gradient.Gonzalez, runge_kutta.RK4)
+    classes = (
+        discrete_gradient.Gonzalez,
+        discrete_gradient.ItohAbe,
+        discrete_gradient.SymmetrizedItohAbe,
+        discrete_gradient.AVF,
+        discrete_gradient.DampedGonzalez,
+        runge_kutta.RK4,
+    )
     return {cls.name: cls for cls in classes}
