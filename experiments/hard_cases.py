@@ -168,7 +168,7 @@ def main():
         cells = []
         for method in methods:
             passed, figure = check(method)
-            cells.append(f"{'pass' if passed else 'FAIL'}: {figure}")
+            cells.append(f"{'pass' if passed else 'FAIL'}: {figure}".replace("|", "\\|"))
         lines.append(f"| {case} | " + " | ".join(cells) + " |")
         print(lines[-1], flush=True)
     compensation = compensation_figures(steps)
