@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 from hypothesis import given
-from hypothesis import strategies as st
 
 import geomint
 import geomint.testing as gt
@@ -141,3 +140,17 @@ def test_compensated_must_be_bool():
 @pytest.mark.parametrize("name", ["itoh_abe", "symmetrized_itoh_abe", "avf", "damped_gonzalez"])
 def test_short_names(name):
     assert geomint.integrators.resolve(name).name == name
+
+
+@pytest.mark.parametrize("method", DISCRETE_GRADIENTS, ids=IDS)
+@pytest.mark.parametrize("z", [0.0, 1e-320, 1e-300, 1e-150, 1e-10])
+def test_axial_vector_defined_where_dgS_vanishes(method, z):
+    """Oscillator (S = z^2/2, J = e_z) with dgS ~ z -> 0, down to subnormal z: Jbar = (0, 0, 1), finite;
+    degenerate Example 1 on y = 0 (J = 0 there): Jbar = 0."""
+    oscillator = geomint.systems.dissipative_oscillator((0.0, 0.0, 0.5))
+    _, dg_s, axial = method.discrete_gradients(oscillator, np.array([0.6, 0.0, z]), np.array([0.5, 0.3, z]))
+    assert np.all(np.isfinite(dg_s))
+    np.testing.assert_array_equal(axial, [0.0, 0.0, 1.0])
+    example = geomint.systems.degenerate_example(1)
+    _, _, axial = method.discrete_gradients(example, np.array([0.6, 0.0, z]), np.array([0.5, 0.0, 2 * z]))
+    np.testing.assert_array_equal(axial, [0.0, 0.0, 0.0])
