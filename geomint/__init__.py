@@ -1,11 +1,18 @@
 """geomint: structure-preserving integrators for metriplectic systems in R^3."""
 
-from . import systems
-from .integrators import RK4, Gonzalez, Integrator
+from . import reference, systems
+from .integrators import (
+    RK4, Composition, Gonzalez, Integrator, KahanLi6, KahanLi8, Lie, OscillatorRotation, Projected, RigidBodyFlow,
+    RotorSplitting, Strang, Suzuki4, SuzukiUmeno8, Yoshida4, Yoshida6,
+)
 from .solution import Solution
 from .solve import solve
 from .system import MetriplecticSystem
 
 __version__ = "0.1.0"
 
-__all__ = ["RK4", "Gonzalez", "Integrator", "MetriplecticSystem", "Solution", "__version__", "solve", "systems"]
+__all__ = [
+    "RK4", "Composition", "Gonzalez", "Integrator", "KahanLi6", "KahanLi8", "Lie", "MetriplecticSystem",
+    "OscillatorRotation", "Projected", "RigidBodyFlow", "RotorSplitting", "Solution", "Strang", "Suzuki4",
+    "SuzukiUmeno8", "Yoshida4", "Yoshida6", "__version__", "reference", "solve", "systems",
+]

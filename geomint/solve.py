@@ -72,7 +72,7 @@ def solve(system, x0, t_span, h, method="gonzalez", save_every=1, progress=None)
     counters = np.zeros(_driver.N_COUNTERS, dtype=np.int64)
     counters[_driver.ROWS] = 1
     residual = np.zeros(1)
-    code, coeffs, iopts = integrator.lower()
+    code, coeffs, iopts = integrator.bind(system, x0)
     state = x0.copy()
     chunk = n_steps if progress is None else max(1, min(n_steps, 100_000))
     integrate = _driver.integrate[system.form]

@@ -9,6 +9,7 @@
 import numpy as np
 from numba import njit
 
+from . import composition
 from .discrete_gradient import discrete_field
 from .field import field
 from .vec3 import add, axpy, is_finite, load, norm_inf, scale, solve, sub
@@ -16,6 +17,7 @@ from .vec3 import add, axpy, is_finite, load, norm_inf, scale, solve, sub
 # families
 RK4 = 0
 DISCRETE_GRADIENT = 1
+COMPOSED = 10  # splittings, compositions, projections: see composition.py
 
 # step status
 OK = 0
@@ -112,6 +114,10 @@ def step(code, H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts,
     """Advance ``x`` by ``h`` with the method ``(code, coeffs, iopts)``."""
     if code == RK4:
         return rk4_step(H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, h)
+    if code == COMPOSED:
+        return composition.composed_step(
+            H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, H_x, S_x, h, 0.0
+        )[:7]
     return discrete_gradient_step(
         iopts[DG_KIND], iopts[DG_MAX_ITER], H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, H_x, S_x, h
     )
