@@ -18,7 +18,7 @@ from typing import ClassVar
 
 from .base import Integrator
 from .discrete_gradient import Gonzalez
-from .program import Program, check_applies, program_of
+from .program import Program, Programmed, program_of
 
 _DIGITS = 40
 
@@ -62,7 +62,7 @@ def gammas(scheme, exact=False):
 
 
 @dataclass(frozen=True)
-class Composition(Integrator):
+class Composition(Programmed, Integrator):
     """``base`` composed with the coefficients of ``scheme`` (a key of ``SCHEMES``).
 
     Parameters
@@ -121,15 +121,8 @@ class Composition(Integrator):
         base = program_of(self.base)
         return Program(base.stages, gammas(self.scheme), self.monotone)
 
-    def check_system(self, system):
-        check_applies(self.base, system)
-
-    def bind(self, system, x0):
-        self.check_system(system)
-        return self.lower()
-
-    def lower(self):
-        return self.program().lower()
+    def sub_methods(self):
+        return (self.base,)
 
 
 def _wrapper(scheme_name, doc):

@@ -48,6 +48,25 @@ class Program:
         return _steps.COMPOSED, np.array(coeffs, dtype=np.float64), np.array(header + rows + leaf_iopts, dtype=np.int64)
 
 
+class Programmed:
+    """Mixin for methods built on sub-integrators and lowered through ``program()``."""
+
+    def sub_methods(self):
+        raise NotImplementedError
+
+    def check_system(self, system):
+        """Raise ``ValueError`` if a sub-integrator does not apply to ``system`` (exact flows)."""
+        for method in self.sub_methods():
+            check_applies(method, system)
+
+    def bind(self, system, x0):
+        self.check_system(system)
+        return self.lower()
+
+    def lower(self):
+        return self.program().lower()
+
+
 def leaf_data(method):
     """``(leaf code, iopts)`` of a method used as one stage of a program."""
     if hasattr(method, "leaf_code"):

@@ -4,12 +4,12 @@ from dataclasses import dataclass, field
 
 from .._kernels import composition as _comp
 from .base import Integrator
-from .program import Program, check_applies, program_of
+from .program import Program, Programmed, program_of
 from .runge_kutta import RK4
 
 
 @dataclass(frozen=True)
-class Projected(Integrator):
+class Projected(Programmed, Integrator):
     """``method`` followed by a projection onto ``{H = H0, S <= S_n}``, ``H0 = H(x0)``.
 
     Standard (``symmetric=False``), after ``x~ = Phi_h(x_n)``:
@@ -81,13 +81,10 @@ class Projected(Integrator):
         mode = _comp.SYMMETRIC if self.symmetric else _comp.STANDARD
         return Program(inner.stages, inner.gammas, inner.monotone, mode, self.max_iter)
 
-    def check_system(self, system):
-        check_applies(self.method, system)
+    def sub_methods(self):
+        return (self.method,)
 
     def bind(self, system, x0):
         """Lowered with the target ``H0 = H(x0)``."""
         self.check_system(system)
         return self.program().lower(system.H(x0))
-
-    def lower(self):
-        return self.program().lower()

@@ -15,11 +15,11 @@ from typing import ClassVar
 
 from .base import Integrator
 from .discrete_gradient import Gonzalez
-from .program import Program, check_applies, check_flow, leaf_data
+from .program import Program, Programmed, check_flow, leaf_data
 
 
 @dataclass(frozen=True)
-class _Splitting(Integrator):
+class _Splitting(Programmed, Integrator):
     hamiltonian_part: Integrator = field(default_factory=Gonzalez)
     gradient_part: Integrator = field(default_factory=Gonzalez)
 
@@ -44,16 +44,8 @@ class _Splitting(Integrator):
     def implicit(self):
         return self.hamiltonian_part.implicit or self.gradient_part.implicit
 
-    def check_system(self, system):
-        check_applies(self.hamiltonian_part, system)
-        check_applies(self.gradient_part, system)
-
-    def bind(self, system, x0):
-        self.check_system(system)
-        return self.lower()
-
-    def lower(self):
-        return self.program().lower()
+    def sub_methods(self):
+        return (self.hamiltonian_part, self.gradient_part)
 
 
 @dataclass(frozen=True)
