@@ -138,8 +138,9 @@ def rigid_body_flow(a, b, c, m, t):
         k^2 = (q - alpha_c) V^2 / ((alpha_d - alpha_c) W^2),
         omega = sqrt((alpha_d - alpha_c)(alpha_d - q)) W,
 
-    ``s_w = sign w``, ``s_v = sign((grad H x m)_v coefficient) s_w`` and
-    ``theta_0 = F(atan2(s_v v / V, u / U) | k^2)``.  Two equal coefficients give a
+    ``s_w = sign w``, ``s_u = 1`` (``sign u`` on the separatrix ``k = 1``, where
+    ``cn = sech > 0``), ``s_v = sign((grad H x m)_v coefficient) s_u s_w``, the
+    cn component ``s_u U cn`` and ``theta_0 = F(atan2(s_v v / V, u / U) | k^2)``.  Two equal coefficients give a
     uniform rotation about the third axis; equilibria are returned unchanged.
     Our field is ``grad H x m``: the time reverse of the book's ``m x grad H``.
     """
@@ -171,7 +172,9 @@ def rigid_body_flow(a, b, c, m, t):
     U, V, W = math.sqrt(U2), math.sqrt(V2), math.sqrt(W2)
     omega = math.sqrt((alpha_d - alpha_c) * (alpha_d - q)) * W
     s_w = 1.0 if w >= 0.0 else -1.0
-    s_v = s_w if _cyclic_coefficient(coef, mid) > 0.0 else -s_w
+    # cn changes sign for k < 1, so s_u = +1 will do; on the separatrix cn = sech > 0 and u keeps its sign
+    s_u = -1.0 if k2 >= 1.0 and u < 0.0 else 1.0
+    s_v = s_u * s_w if _cyclic_coefficient(coef, mid) > 0.0 else -s_u * s_w
     if k2 >= 1.0:
         if u == 0.0:
             return m  # the unstable equilibrium on the middle axis
@@ -179,7 +182,7 @@ def rigid_body_flow(a, b, c, m, t):
     else:
         theta0 = elliptic_f(math.atan2(s_v * v / V, u / U), k2)
     sn, cn, dn = jacobi_sn_cn_dn(omega * t + theta0, k2)
-    out = _set(m, c_axis, U * cn)
+    out = _set(m, c_axis, s_u * U * cn)
     out = _set(out, mid, s_v * V * sn)
     return _set(out, d_axis, s_w * W * dn)
 
