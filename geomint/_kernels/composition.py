@@ -18,7 +18,10 @@ Layout (built by ``geomint.integrators.program.Program.lower``)::
     coeffs[1 : 1 + G] gamma_1 .. gamma_G;  then f_1 .. f_N
 
 Leaf codes are the families of ``steps`` (RK4, DISCRETE_GRADIENT) and the
-exact flows below.  Caller: ``steps.step`` (and ``rise_statistics``).
+exact flows below.  Caller: ``steps.step`` (and ``rise_statistics``).  The two
+modules import each other: ``steps.step`` branches here for ``COMPOSED``, and
+the leaves here call ``steps``' kernels; numba resolves ``_steps.*`` when it
+compiles, after both modules are loaded.
 """
 
 import numpy as np
