@@ -313,3 +313,14 @@ def test_rigid_body_flow_on_the_separatrix_and_at_equilibria(m0):
     tight = solve_ivp(field, (0.0, 5.0), m0, method="DOP853", rtol=2.3e-14, atol=1e-16).y[:, -1]
     exact = geomint.reference.rigid_body_exact(0.5, 1.0, 1.5, m0, 5.0)
     assert np.max(np.abs(exact - tight)) <= 1e-12
+
+
+@given(data=st.data(), x=gt.states(), h=gt.step_sizes(1e-3, 0.5))
+def test_standalone_hamiltonian_flows_keep_what_they_declare(data, x, h):
+    """On eps = 0: the exact flows keep H and S, the rotor splitting keeps S (|m|) only."""
+    systems, method = data.draw(st.sampled_from([
+        (rigid_bodies, geomint.RigidBodyFlow()), (rigid_bodies, geomint.RotorSplitting()),
+        (quartic_bodies, geomint.RotorSplitting()), (oscillators, geomint.OscillatorRotation()),
+    ]))
+    system = data.draw(systems).with_effects(eps=0.0)
+    gt.assert_step_invariants(system, method, x, h, ulps=16)
