@@ -1,10 +1,11 @@
 """geomint: structure-preserving integrators for metriplectic systems in R^3."""
 
-from . import reference, systems
+from . import level_set, reference, systems
 from .integrators import (
     RK4, Composition, Gonzalez, Integrator, KahanLi6, KahanLi8, Lie, OscillatorRotation, Projected, RigidBodyFlow,
     RotorSplitting, Strang, Suzuki4, SuzukiUmeno8, Yoshida4, Yoshida6,
 )
+from .scene import Scene, SceneError, SceneResult, run_scene
 from .solution import Solution
 from .solve import solve
 from .system import MetriplecticSystem
@@ -13,6 +14,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "RK4", "Composition", "Gonzalez", "Integrator", "KahanLi6", "KahanLi8", "Lie", "MetriplecticSystem",
-    "OscillatorRotation", "Projected", "RigidBodyFlow", "RotorSplitting", "Solution", "Strang", "Suzuki4",
-    "SuzukiUmeno8", "Yoshida4", "Yoshida6", "__version__", "reference", "solve", "systems",
+    "OscillatorRotation", "Projected", "RigidBodyFlow", "RotorSplitting", "Scene", "SceneError", "SceneResult",
+    "Solution", "Strang", "Suzuki4", "SuzukiUmeno8", "Yoshida4", "Yoshida6", "__version__", "level_set", "reference",
+    "run_scene", "solve", "systems",
 ]

@@ -1,22 +1,33 @@
 """The ``geomint`` command line.
 
-``geomint`` (or ``geomint drift``) integrates the relaxing rigid body
-(REFERENCES.md R2) with the Gonzalez discrete-gradient method and with RK4 and
-prints the energy and Casimir drift side by side.
+    geomint run SCENE [--out DIR] [--quiet]   run a scene: .npz data, JSON summary, PNG figures
+    geomint show SCENE                        validate a scene and print it fully resolved (TOML)
+    geomint list                              catalogue systems, integrators, bundled scenes
+    geomint drift                             Gonzalez vs RK4 drift on the relaxing rigid body (the default)
 
-Exit codes: 0 success, 1 a run failed numerically, 2 bad command-line input.
+SCENE is a scene file (TOML, see ``geomint.scene``) or the name of a bundled
+scene, e.g. ``geomint run rigid_body_distinct``.  A bad scene prints one line
+naming the file, the key and the problem (add ``--traceback`` for the trace).
+
+Exit codes: 0 success, 1 a run failed numerically (results up to the failure
+are written), 2 bad input (command line or scene).
 """
 
 import argparse
+import json
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
 from . import __version__
 from .integrators import RK4, Gonzalez
+from .scene import FIGURES, OBSERVABLES, SceneError, bundled_scenes, load, run_scene
 from .solve import solve
-from .systems import relaxing_rigid_body
+from .systems import CATALOGUE, relaxing_rigid_body
+
+OK, FAILED, BAD_INPUT = 0, 1, 2
 
 
 def _positive(kind):
@@ -30,9 +41,20 @@ def _positive(kind):
 
 
 def _parser():
-    parser = argparse.ArgumentParser(prog="geomint", description=__doc__.split("\n\n")[1])
+    parser = argparse.ArgumentParser(
+        prog="geomint", description=__doc__.split("\n\n")[1], epilog=__doc__.split("\n\n")[-1],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("--version", action="version", version=f"geomint {__version__}")
     commands = parser.add_subparsers(dest="command")
+    scene = argparse.ArgumentParser(add_help=False)
+    scene.add_argument("scene", metavar="SCENE", help="a scene file (.toml) or the name of a bundled scene")
+    scene.add_argument("--traceback", action="store_true", help="show the Python traceback of an error")
+    run = commands.add_parser("run", parents=[scene], help="run a scene: .npz data, JSON summary, PNG figures")
+    run.add_argument("--out", metavar="DIR", type=Path, help="output folder (default: runs/<scene name>)")
+    run.add_argument("--quiet", action="store_true", help="no progress bar and no report on stdout")
+    commands.add_parser("show", parents=[scene], help="validate a scene and print it fully resolved")
+    commands.add_parser("list", help="catalogue systems, integrators and bundled scenes")
     drift = commands.add_parser("drift", help="energy and Casimir drift: Gonzalez vs RK4 (the default)")
     drift.add_argument("--steps", type=_positive(int), default=200_000, help="number of steps (default 200000)")
     drift.add_argument("--h", type=_positive(float), default=0.05, help="step size (default 0.05)")
@@ -40,8 +62,9 @@ def _parser():
     return parser
 
 
-def drift(steps, h, eps, out=sys.stdout):
+def drift(steps, h, eps, out=None):
     """Print max |H - H0|/|H0|, S rises and the final S for Gonzalez and RK4."""
+    out = sys.stdout if out is None else out
     system = relaxing_rigid_body(0.5, 1.0, 1.5, eps=eps)
     x0 = np.array([np.cos(1.1), 0.0, np.sin(1.1)])
     save_every = max(1, steps // 1000)
@@ -64,17 +87,126 @@ def drift(steps, h, eps, out=sys.stdout):
     return 1 if failed else 0
 
 
+def run(scene_name, out_dir=None, quiet=False, out=None):
+    """``geomint run``: run a scene, write ``<name>.npz``, ``<name>.summary.json`` and figures."""
+    out = sys.stdout if out is None else out
+    from tqdm import tqdm
+
+    from . import plotting
+
+    scene = load(scene_name).resolved()
+    out_dir = Path(out_dir) if out_dir is not None else Path("runs") / scene.name
+    total = scene.steps_per_trajectory * scene.n_trajectories
+    with tqdm(total=total, unit="step", unit_scale=True, disable=quiet, delay=1.0, file=sys.stderr,
+              desc=scene.name) as bar:
+        result = run_scene(scene, progress=bar.update)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    data = out_dir / f"{scene.name}.npz"
+    np.savez_compressed(data, **result.records, x0=np.array([sol.x[0] for sol in result.solutions]),
+                        status=np.array([sol.status for sol in result.solutions]))
+    summary = result.summary()
+    summary_path = out_dir / f"{scene.name}.summary.json"
+    summary_path.write_text(json.dumps(summary, indent=2) + "\n")
+    figures = plotting.draw(result, out_dir)
+    if not quiet:
+        _report(summary, [data, summary_path, *figures], out)
+    for sol in result.solutions:
+        if not sol.success:
+            print(f"geomint: run failed: x0 = {sol.x[0].tolist()}: {sol.message}", file=sys.stderr)
+    return OK if result.success else FAILED
+
+
+def _report(summary, paths, out):
+    totals = summary["totals"]
+    print(f"{summary['scene'].get('title') or summary['system']}", file=out)
+    print(f"{summary['system']}, {summary['method']}", file=out)
+    print(f"{totals['trajectories']} trajectories, {totals['n_steps']} steps, {totals['n_newton']} Newton "
+          f"iterations, {totals['wall_s']:.3g} s; failed: {totals['failed']}", file=out)
+    print(f"max |H - H0|/|H0| = {totals['max_energy_error']:.3g} "
+          f"({totals['max_energy_error'] / np.finfo(float).eps:.1f} eps); S rises: {totals['S_rises']}", file=out)
+    for path in paths:
+        print(f"wrote {path}", file=out)
+
+
+def show(scene_name, out=None):
+    """``geomint show``: the scene fully resolved, as TOML."""
+    out = sys.stdout if out is None else out
+    scene = load(scene_name).resolved()
+    print(f"# {scene.source}, resolved: {scene.n_trajectories} trajectories x {scene.steps_per_trajectory} steps",
+          file=out)
+    print(to_toml(scene.to_dict()), file=out)
+    print("\n# initial states", file=out)
+    for x0 in scene.initial_states():
+        print(f"#   {x0.tolist()}", file=out)
+    return OK
+
+
+def list_all(out=None):
+    """``geomint list``: what scenes can name."""
+    out = sys.stdout if out is None else out
+    from .integrators.base import _short_names
+
+    print("systems ([system] name):", file=out)
+    for name, constructor in CATALOGUE.items():
+        print(f"  {name:<24}{constructor.__doc__.strip().splitlines()[0]}", file=out)
+    print("integrators ([integrator] method):", file=out)
+    for name, cls in sorted(_short_names().items()):
+        print(f"  {name:<24}order {cls.order}; {cls.__doc__.strip().splitlines()[0]}", file=out)
+    print("observables ([output] record):", file=out)
+    for name, (what, _) in OBSERVABLES.items():
+        print(f"  {name:<24}{what}", file=out)
+    print("figures ([output] figures):", file=out)
+    for name, what in FIGURES.items():
+        print(f"  {name:<24}{what}", file=out)
+    print("bundled scenes (geomint run NAME):", file=out)
+    for name, path in bundled_scenes().items():
+        print(f"  {name:<24}{load(str(path)).title}", file=out)
+    return OK
+
+
+def to_toml(data):
+    """TOML text for a scene's ``to_dict()`` (top-level keys, then one table per section)."""
+    top = [f"{key} = {_toml_value(value)}" for key, value in data.items() if not isinstance(value, dict)]
+    tables = [f"\n[{key}]\n" + "\n".join(f"{k} = {_toml_value(v)}" for k, v in value.items())
+              for key, value in data.items() if isinstance(value, dict)]
+    return "\n".join(top) + "\n" + "\n".join(tables)
+
+
+def _toml_value(value):
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{k} = {_toml_value(v)}" for k, v in value.items()) + " }"
+    return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+
+
 def main(argv=None):
     args = _parser().parse_args(argv)
+    if args.command in ("run", "show"):
+        try:
+            if args.command == "run":
+                return run(args.scene, args.out, args.quiet)
+            return show(args.scene)
+        except SceneError as exc:
+            if args.traceback:
+                raise
+            print(f"geomint: error: {exc}", file=sys.stderr)
+            return BAD_INPUT
+    if args.command == "list":
+        return list_all()
     if args.command in (None, "drift"):
         steps = getattr(args, "steps", 200_000)
         h = getattr(args, "h", 0.05)
         eps = getattr(args, "eps", 0.1)
         if eps < 0:
             print("geomint: error: --eps must be >= 0", file=sys.stderr)
-            return 2
+            return BAD_INPUT
         return drift(steps, h, eps)
-    return 2
+    return BAD_INPUT
 
 
 if __name__ == "__main__":

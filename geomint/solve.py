@@ -62,7 +62,7 @@ def solve(system, x0, t_span, h, method="gonzalez", save_every=1, progress=None)
     x0 = _check_state(x0)
     t0, t_end = _check_span(t_span)
     h = _check_step(h)
-    n_steps = max(1, math.ceil((t_end - t0) / h * (1.0 - 4.0 * np.finfo(float).eps)))
+    n_steps = step_count(t0, t_end, h)
     h_last = (t_end - t0) - (n_steps - 1) * h
     save_every = _check_save_every(save_every, n_steps)
     rows = n_steps // save_every + 2
@@ -73,7 +73,7 @@ def solve(system, x0, t_span, h, method="gonzalez", save_every=1, progress=None)
     counters[_driver.ROWS] = 1
     residual = np.zeros(1)
     code, coeffs, iopts = integrator.bind(system, x0)
-    state = x0.copy()
+    state = np.concatenate([x0, np.zeros(3), [out_H[0]]])  # state, its compensation, the energy anchor
     chunk = n_steps if progress is None else max(1, min(n_steps, 100_000))
     integrate = _driver.integrate[system.form]
     for k_begin in range(0, n_steps, chunk):
@@ -97,6 +97,11 @@ def solve(system, x0, t_span, h, method="gonzalez", save_every=1, progress=None)
         n_newton=int(counters[_driver.NEWTON_ITERATIONS]), nfev=int(counters[_driver.FIELD_EVALUATIONS]),
         method=integrator,
     )
+
+
+def step_count(t0, t_end, h):
+    """Number of fixed steps ``solve`` takes from ``t0`` to ``t_end`` (the last one shortened to land on it)."""
+    return max(1, math.ceil((t_end - t0) / h * (1.0 - 4.0 * np.finfo(float).eps)))
 
 
 def _message(status, failed, t0, h, counters, residual, integrator):

@@ -35,6 +35,10 @@ def integrate(
 ):
     """Take steps ``k_begin .. k_end - 1`` of ``n_steps`` from ``state`` (updated in place).
 
+    ``state`` (7,) holds the state, its compensation (the rounding error
+    carried by compensated summation, see ``steps.advance``) and the energy
+    every step is anchored to, H(x0) (see ``steps.discrete_gradient_step``).
+
     Step ``k`` goes from ``t0 + k h`` to ``t0 + (k+1) h`` (the last one has
     length ``h_last``).  States ``k`` with ``k % save_every == 0`` and the final
     one are written to row ``counters[ROWS]`` of the outputs.  A failed step
@@ -45,13 +49,15 @@ def integrate(
     """
     buf = np.empty(3)
     x = (state[0], state[1], state[2])
+    comp = (state[3], state[4], state[5])
     buf[0], buf[1], buf[2] = x
     H_x = H(buf, params)
     S_x = S(buf, params)
+    H_anchor = state[6]
     for k in range(k_begin, k_end):
         hk = h_last if k == n_steps - 1 else h
-        x_new, H_new, S_new, status, iterations, evaluations, res = step(
-            code, H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, H_x, S_x, hk
+        x_new, comp_new, H_new, S_new, status, iterations, evaluations, res = step(
+            code, H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, comp, H_anchor, S_x, hk
         )
         counters[NEWTON_ITERATIONS] += iterations
         counters[FIELD_EVALUATIONS] += evaluations
@@ -64,9 +70,10 @@ def integrate(
             if k % save_every != 0:
                 _save(out_t, out_x, out_H, out_S, counters, t0 + k * h, x, H_x, S_x)
             break
-        x, H_x, S_x = x_new, H_new, S_new
+        x, comp, H_x, S_x = x_new, comp_new, H_new, S_new
         counters[STEPS] += 1
         if (k + 1) % save_every == 0 or k + 1 == n_steps:
             t = t0 + (k + 1) * h if k + 1 < n_steps else t0 + (n_steps - 1) * h + h_last
             _save(out_t, out_x, out_H, out_S, counters, t, x, H_x, S_x)
     state[0], state[1], state[2] = x
+    state[3], state[4], state[5] = comp

@@ -1,9 +1,14 @@
 """One step of each method family, all with the same calling convention.
 
-``step(code, model..., eps, hamiltonian, coeffs, iopts, buf, x, H_x, S_x, h)`` returns
-``(x_new, H_new, S_new, status, newton_iterations, field_evaluations, residual)``.
-``code`` names the family, ``coeffs``/``iopts`` carry the method's data (see
-``geomint.integrators``) and ``buf`` is a length-3 work array.  ``status`` is ``OK`` or one of the failure codes below.
+``step(code, model..., eps, hamiltonian, coeffs, iopts, buf, x, comp, H_x, S_x, h)``
+returns ``(x_new, comp_new, H_new, S_new, status, newton_iterations,
+field_evaluations, residual)``.  ``code`` names the family, ``coeffs``/``iopts``
+carry the method's data (see ``geomint.integrators``) and ``buf`` is a length-3
+work array.  ``status`` is ``OK`` or one of the failure codes below.
+
+Every family computes an increment and lands with ``advance``: compensated
+(Kahan) summation, in which ``comp`` carries the rounding error of the state
+from step to step, so that round-off in the state does not random-walk.
 """
 
 import numpy as np
@@ -30,24 +35,33 @@ DG_MAX_ITER = 1
 
 EPS = np.finfo(np.float64).eps
 SQRT_EPS = np.sqrt(EPS)
+GUARD = 1024.0
 
 
 @njit(inline="always")
-def _with_invariants(H, S, params, buf, x_new, status, iterations, evaluations, residual):
+def advance(H, S, params, buf, x, comp, dx):
+    """``x + dx`` by compensated summation; returns ``(x_new, comp_new, H(x_new), S(x_new))``.
+
+    Kahan, Comm. ACM 8 (1965) 40, doi:10.1145/363707.363723; as in Hairer's
+    geometric integrators.  ``x + comp`` is the state carried to extra precision.
+    """
+    y = sub(dx, comp)
+    x_new = add(x, y)
+    comp_new = sub(sub(x_new, x), y)
     load(buf, x_new)
-    return x_new, H(buf, params), S(buf, params), status, iterations, evaluations, residual
+    return x_new, comp_new, H(buf, params), S(buf, params)
 
 
 @njit
-def rk4_step(H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, h):
+def rk4_step(H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, comp, h):
     """Classical Runge-Kutta, order 4: the generic, structure-blind baseline."""
     k1 = field(grad_H, grad_S, J, params, eps, hamiltonian, buf, x)
     k2 = field(grad_H, grad_S, J, params, eps, hamiltonian, buf, axpy(0.5 * h, k1, x))
     k3 = field(grad_H, grad_S, J, params, eps, hamiltonian, buf, axpy(0.5 * h, k2, x))
     k4 = field(grad_H, grad_S, J, params, eps, hamiltonian, buf, axpy(h, k3, x))
     incr = add(add(k1, k4), scale(2.0, add(k2, k3)))
-    x_new = axpy(h / 6.0, incr, x)
-    return _with_invariants(H, S, params, buf, x_new, OK, 0, 4, 0.0)
+    x_new, comp_new, H_new, S_new = advance(H, S, params, buf, x, comp, scale(h / 6.0, incr))
+    return x_new, comp_new, H_new, S_new, OK, 0, 4, 0.0
 
 
 @njit(inline="always")
@@ -66,58 +80,107 @@ def _newton_matrix(grad_H, grad_S, J, params, eps, hamiltonian, buf, x, f0, h):
     )
 
 
+@njit(inline="always")
+def _residual(kind, H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, H_x, S_x, h, x_new):
+    F = discrete_field(kind, H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, H_x, S_x, x_new)[0]
+    return sub(sub(x_new, x), scale(h, F))
+
+
 @njit
-def discrete_gradient_step(kind, max_iter, H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, H_x, S_x, h):
+def _residual_matrix(kind, H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, H_x, S_x, h, x_new):
+    """Rows of the Jacobian of ``R(x') = x' - x - h F(x, x')`` at ``x_new`` (4 discrete-field calls)."""
+    r0 = _residual(kind, H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, H_x, S_x, h, x_new)
+    size = norm_inf(x_new)
+    delta = SQRT_EPS * (size if size > 0.0 else 1.0)
+    columns = []
+    for j in range(3):
+        shifted = (x_new[0] + (delta if j == 0 else 0.0), x_new[1] + (delta if j == 1 else 0.0),
+                   x_new[2] + (delta if j == 2 else 0.0))
+        r = _residual(kind, H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, H_x, S_x, h, shifted)
+        columns.append(scale(1.0 / delta, sub(r, r0)))
+    c0, c1, c2 = columns[0], columns[1], columns[2]
+    return ((c0[0], c1[0], c2[0]), (c0[1], c1[1], c2[1]), (c0[2], c1[2], c2[2]))
+
+
+@njit
+def discrete_gradient_step(
+    kind, max_iter, H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, comp, H_x, S_x, h
+):
     """Solve ``x' = x + h F(x, x')`` (see ``discrete_field``) by Newton's method to round-off.
 
-    Newton matrix ``I - h/2 D xi`` (the implicit-midpoint Jacobian, exact for
-    quadratic H and S) at ``x``; start from the linearly implicit midpoint
-    predictor.  Converged when the correction is within 4 ulp of the state and
-    of the increment.  When the corrections stop shrinking (ratio >= 1/2) the
-    iteration has reached the noise floor of the discrete gradient (its
-    quotient carries round-off ~ eps |H| / |dx|): that is accepted below
-    sqrt(eps) relative; above it the Newton matrix is re-evaluated at the
-    current midpoint.  Fails after ``max_iter`` iterations or on a non-finite
-    iterate.
+    Newton matrix ``I - h/2 D xi(x)`` (the implicit-midpoint Jacobian, exact for
+    quadratic H and S near the solution); start from the linearly implicit
+    midpoint predictor (explicit Euler where that matrix is nearly singular).
+    ``H_x`` is the energy the step keeps: the driver passes H(x0), not H(x_n),
+    so that the discrete-gradient identity ``dgH . dx = H(x') - H_x`` pulls
+    every step back onto the initial level set and the rounding of the states
+    does not random-walk the energy.  ``S_x`` is S(x_n).
+
+    The iteration has converged when the correction is within 4 ulp of the state
+    and increment.  When a correction is not below half the smallest one so far
+    (stalled), the Newton matrix becomes the finite-difference Jacobian of the
+    discrete residual itself; once that has been done, a stalled correction
+    within 16 times the round-off floor (4 ulp of the state plus ``|h|`` times the
+    noise the discrete-gradient quotients carry, ~ eps |F| / |dx|) means the
+    floor is reached, and the root is accepted.  An accepted root must keep H and not raise S
+    (not lower it for ``h < 0``: the backward sub-steps of a composition)
+    to within ``GUARD`` ulps of the terms (the scheme guarantees both for the
+    true root; a far-away spurious root, reached from a step far beyond the time
+    scale, fails this).  Fails on divergence, on a spurious root, after
+    ``max_iter`` iterations, or on a non-finite iterate.
     """
     f0 = field(grad_H, grad_S, J, params, eps, hamiltonian, buf, x)
     m = _newton_matrix(grad_H, grad_S, J, params, eps, hamiltonian, buf, x, f0, h)
-    x_new = add(x, solve(m, scale(h, f0)))
+    reach = 4.0 * h * norm_inf(f0)
+    dx = solve(m, scale(h, f0))
+    if not (norm_inf(dx) <= reach):
+        dx = scale(h, f0)
+    x_new = add(x, dx)
     evaluations = 4
-    previous = np.inf
+    best = np.inf
+    error = 0.0
+    refreshed = False
     for iteration in range(1, max_iter + 1):
-        F, H_new, S_new, dg_h, dg_s, axial_bar = discrete_field(
+        F, H_new, S_new, dg_h, dg_s, axial_bar, noise = discrete_field(
             kind, H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, H_x, S_x, x_new
         )
         evaluations += 1
-        correction = solve(m, sub(sub(x_new, x), scale(h, F)))
-        x_new = sub(x_new, correction)
+        correction = solve(m, sub(dx, scale(h, F)))
+        dx = sub(dx, correction)
+        x_new = add(x, dx)
         error = norm_inf(correction)
         if not (np.isfinite(error) and is_finite(x_new)):
-            return x_new, H_new, S_new, NON_FINITE, iteration, evaluations, error
-        size = max(norm_inf(x_new), norm_inf(sub(x_new, x)))
-        if error <= 4.0 * EPS * size:
-            return _with_invariants(H, S, params, buf, x_new, OK, iteration, evaluations, error)
-        if error >= 0.5 * previous:
-            if error <= SQRT_EPS * size:
-                return _with_invariants(H, S, params, buf, x_new, OK, iteration, evaluations, error)
-            mid = axpy(0.5, sub(x_new, x), x)
-            f_mid = field(grad_H, grad_S, J, params, eps, hamiltonian, buf, mid)
-            m = _newton_matrix(grad_H, grad_S, J, params, eps, hamiltonian, buf, mid, f_mid, h)
+            return x_new, comp, H_new, S_new, NON_FINITE, iteration, evaluations, error
+        size = max(norm_inf(x_new), norm_inf(dx))
+        floor = 4.0 * EPS * size + 2.0 * abs(h) * noise  # abs: compositions take backward steps
+        stalled = error >= 0.5 * best
+        if error <= 4.0 * EPS * size or (stalled and refreshed and error <= 16.0 * floor):
+            x_new, comp_new, H_new, S_new = advance(H, S, params, buf, x, comp, dx)
+            slack = GUARD * EPS * size
+            if abs(H_new - H_x) <= slack * norm_inf(dg_h) + GUARD * EPS * max(abs(H_x), abs(H_new)) and (
+                np.sign(h) * (S_new - S_x) <= slack * norm_inf(dg_s) + GUARD * EPS * max(abs(S_x), abs(S_new))
+            ):
+                return x_new, comp_new, H_new, S_new, OK, iteration, evaluations, error
+            break  # a spurious root: the invariants the scheme guarantees do not hold
+        if error > 1e3 * (norm_inf(x) + reach):
+            break  # diverged
+        if stalled:
+            m = _residual_matrix(kind, H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, H_x, S_x, h, x_new)
             evaluations += 4
-        previous = error
-    return x_new, H_new, S_new, NEWTON_FAILED, max_iter, evaluations, error
+            refreshed = True
+        best = min(best, error)
+    return x_new, comp, H_x, S_x, NEWTON_FAILED, iteration, evaluations, error
 
 
 @njit
-def step(code, H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, H_x, S_x, h):
+def step(code, H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, comp, H_x, S_x, h):
     """Advance ``x`` by ``h`` with the method ``(code, coeffs, iopts)``."""
     if code == RK4:
-        return rk4_step(H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, h)
+        return rk4_step(H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, comp, h)
     if code == COMPOSED:
         return composition.composed_step(
-            H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, H_x, S_x, h, 0.0
-        )[:7]
+            H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, comp, H_x, S_x, h, 0.0
+        )[:8]
     return discrete_gradient_step(
-        iopts[DG_KIND], iopts[DG_MAX_ITER], H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, H_x, S_x, h
+        iopts[DG_KIND], iopts[DG_MAX_ITER], H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, comp, H_x, S_x, h
     )

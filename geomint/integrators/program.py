@@ -32,7 +32,7 @@ class Program:
     projection: int = _comp.NO_PROJECTION
     max_iter: int = 50
 
-    def lower(self, H_target=np.nan):
+    def lower(self):
         """``(code, coeffs, iopts)`` for ``steps.step`` (layout in ``_kernels/composition.py``)."""
         from .discrete_gradient import Gonzalez
 
@@ -44,7 +44,7 @@ class Program:
             code, iopts = leaf_data(method)
             rows += [code, FLOWS[flow], first + len(leaf_iopts)]
             leaf_iopts += list(iopts)
-        coeffs = [H_target, *self.gammas, *(fraction for _, _, fraction in self.stages)]
+        coeffs = [*self.gammas, *(fraction for _, _, fraction in self.stages)]
         return _steps.COMPOSED, np.array(coeffs, dtype=np.float64), np.array(header + rows + leaf_iopts, dtype=np.int64)
 
 
@@ -111,7 +111,7 @@ def S_rise_statistics(system, method, x0, h, n_steps, ulps=16):
     state = np.array(x0, dtype=np.float64)
     if state.shape != (3,) or not np.all(np.isfinite(state)):
         raise ValueError(f"`x0` must be 3 finite numbers; got {x0!r}.")
-    code, coeffs, iopts = program_of(method).lower(system.H(state))
+    code, coeffs, iopts = program_of(method).lower()
     out = np.zeros(6, dtype=np.int64)
     _comp.rise_statistics[system.form](
         *system.model, system.eps, system.hamiltonian, coeffs, iopts, state, float(h), int(n_steps), float(ulps), out

@@ -1,0 +1,612 @@
+"""Scenes: declarative runs that compute only what they call for.
+
+A scene names a catalogue system and its parameters, the effects to simulate,
+the initial states, the integrator and what to record and draw.  As a TOML
+file (read with the standard library's ``tomllib``; nothing in it is evaluated
+as Python)::
+
+    title = "Relaxing rigid body, a, b, c distinct"
+
+    [system]
+    name = "relaxing_rigid_body"
+    parameters = { a = 0.5, b = 1.0, c = 1.5 }
+
+    [effects]
+    hamiltonian = true      # xi_P = grad H x J on/off
+    eps = 1.0               # dissipation eps xi_g; 0 = off
+    projection = false      # project every step back onto H = H0
+
+    [initial]
+    level_set = { H0 = 0.6471, n = 12 }    # or: points = [[0.45, 0.0, 0.89], ...]
+
+    [integrator]
+    method = "gonzalez"     # or { name = "gonzalez", max_newton_iter = 50 }
+    h = 0.02
+    duration = 30.0
+
+    [output]
+    record = ["x", "H", "S"]   # observables written to the .npz
+    every = 5                  # save every 5th state; "final": initial and final only
+    figures = ["overview"]
+
+What is off is not computed: ``hamiltonian = false`` runs kernels that never
+call ``J``; ``eps = 0`` runs kernels that never call ``grad S``
+(``MetriplecticSystem.with_effects``); observables not in ``record`` are
+neither computed nor stored, and ``every = "final"`` runs in constant memory.
+"""
+
+import dataclasses
+import importlib
+import inspect
+import math
+import time
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import level_set as _level_set
+from .integrators import resolve
+from .solve import solve, step_count
+from .systems import CATALOGUE
+
+
+class SceneError(ValueError):
+    """A scene that cannot run: names the file, the key and the problem."""
+
+    def __init__(self, source, key, problem):
+        self.source, self.key, self.problem = source, key, problem
+        where = f"{source}: " if source else ""
+        super().__init__(f"{where}`{key}`: {problem}" if key else f"{where}{problem}")
+
+
+#: observable -> (what it is, how it is computed from a system and a Solution)
+OBSERVABLES = {
+    "x": ("state, (rows, 3)", lambda system, sol: sol.x),
+    "H": ("energy", lambda system, sol: sol.H),
+    "S": ("Casimir", lambda system, sol: sol.S),
+    "energy_error": ("|H - H0| / |H0| (absolute when H0 = 0)",
+                     lambda system, sol: np.abs(sol.H - sol.H[0]) / (abs(sol.H[0]) or 1.0)),
+    "sigma": ("sigma = grad S x grad H, (rows, 3)", lambda system, sol: system.sigma(sol.x)),
+    "dS_dt": ("dS/dt = -eps |sigma|^2", lambda system, sol: system.dS_dt(sol.x)),
+    "xi": ("the simulated field, (rows, 3)", lambda system, sol: system.xi(sol.x)),
+}
+
+#: figure -> what it draws (geomint.plotting draws them)
+FIGURES = {
+    "overview": "trajectories on the level surface of H in 3-D, with H(t) and S(t) panels",
+    "trajectories": "trajectories on the level surface of H in 3-D, equilibria marked",
+    "invariants": "relative energy error and S against t",
+}
+
+# section -> key in the file -> Scene field; "" is the top level
+_LAYOUT = {
+    "": {"title": "title", "description": "description"},
+    "system": {"name": "system", "parameters": "parameters"},
+    "effects": {"hamiltonian": "hamiltonian", "eps": "eps", "projection": "projection"},
+    "initial": {"points": "points", "level_set": "level_set"},
+    "integrator": {"method": "integrator", "h": "h", "duration": "duration"},
+    "output": {"record": "record", "every": "every", "figures": "figures", "view": "view", "sections": "sections"},
+}
+_KEY_OF = {name: (f"{section}.{key}" if section else key) for section, keys in _LAYOUT.items()
+           for key, name in keys.items()}
+_LEVEL_SET_KEYS = ("H0", "n", "center")
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """A declarative run; see the module docstring for the file form.
+
+    Parameters
+    ----------
+    system : str
+        A name in ``geomint.systems.CATALOGUE``.
+    parameters : dict
+        Keyword arguments of the catalogue function except ``eps``.
+    hamiltonian : bool, default True
+        Simulate the Hamiltonian part ``xi_P = grad H x J``.
+    eps : float, default 1.0
+        Dissipation ``eps xi_g``; 0 switches it off.
+    projection : bool, default False
+        Wrap the integrator in ``geomint.Projected`` (projection onto H = H0).
+    points : sequence of 3-vectors, optional
+        Initial states.
+    level_set : dict, optional
+        ``{"H0": float, "n": int, "center": 3-vector (default: the minimiser of H)}``:
+        ``n`` initial states spread over ``H = H0`` (``geomint.level_set.sample``).
+        Give exactly one of ``points`` and ``level_set``.
+    integrator : str or dict, default "gonzalez"
+        A short name, or ``{"name": ..., option: value, ...}`` with the
+        integrator's options.
+    h, duration : float
+        Step size and length of the run from t = 0; both finite and > 0.
+    record : sequence of str
+        Observables written out; keys of ``OBSERVABLES``.
+    every : int or "final", default 1
+        Save every ``every``-th state; ``"final"`` keeps the initial and final
+        states only (constant memory).
+    figures : sequence of str
+        Keys of ``FIGURES``; they need ``every`` to be an integer.
+    view : (elevation, azimuth), default (30, -60)
+        Viewing angles of 3-D panels, in degrees.
+    sections : sequence of (a, b, c, d)
+        Planes ``a x + b y + c z = d`` whose intersections with the level
+        surface are drawn (e.g. the plane where the Poisson tensor vanishes).
+    title, description, name : str
+        Labels; ``name`` is the stem of output files.
+    source : str
+        Where the scene came from (a file path, or ``"<Scene>"``); errors name it.
+    """
+
+    system: str
+    h: float
+    duration: float
+    parameters: dict = field(default_factory=dict)
+    hamiltonian: bool = True
+    eps: float = 1.0
+    projection: bool = False
+    points: tuple | None = None
+    level_set: dict | None = None
+    integrator: str | dict = "gonzalez"
+    record: tuple = ("x", "H", "S")
+    every: int | str = 1
+    figures: tuple = ("overview",)
+    view: tuple = (30.0, -60.0)
+    sections: tuple = ()
+    title: str = ""
+    description: str = ""
+    name: str = "scene"
+    source: str = "<Scene>"
+
+    def __post_init__(self):
+        check = _Checker(self.source)
+        set_ = lambda name, value: object.__setattr__(self, name, value)  # noqa: E731 (frozen dataclass)
+        set_("system", check.choice("system", self.system, CATALOGUE, "catalogue system"))
+        set_("parameters", check.parameters(self.system, self.parameters))
+        for flag in ("hamiltonian", "projection"):
+            set_(flag, check.boolean(flag, getattr(self, flag)))
+        set_("eps", check.real("eps", self.eps, minimum=0.0))
+        if not self.hamiltonian and self.eps == 0.0:
+            raise SceneError(self.source, "effects",
+                             "every effect is off (hamiltonian = false, eps = 0): there is nothing to simulate.")
+        if (self.points is None) == (self.level_set is None):
+            raise SceneError(self.source, "initial", "give exactly one of `points` and `level_set`.")
+        if self.points is not None:
+            set_("points", check.points("points", self.points))
+        else:
+            set_("level_set", check.level_set(self.level_set))
+        set_("integrator", check.integrator(self.integrator))
+        set_("h", check.real("h", self.h, positive=True))
+        set_("duration", check.real("duration", self.duration, positive=True))
+        set_("record", check.names("record", self.record, OBSERVABLES, "observable"))
+        set_("every", check.every(self.every))
+        set_("figures", check.names("figures", self.figures, FIGURES, "figure"))
+        if self.figures and self.every == "final":
+            raise SceneError(self.source, _KEY_OF["figures"],
+                             f"figures {list(self.figures)} draw whole trajectories; set `output.every` to an "
+                             "integer or `output.figures = []`.")
+        set_("view", check.numbers("view", self.view, 2, "angles [elevation, azimuth] in degrees"))
+        set_("sections", check.planes("sections", self.sections))
+        for label in ("title", "description", "name"):
+            set_(label, check.string(label, getattr(self, label)))
+
+    # -- construction ----------------------------------------------------------------------
+    @classmethod
+    def from_toml(cls, path):
+        """Read a scene file; a malformed or invalid file raises ``SceneError`` naming it."""
+        path = Path(path)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except OSError as exc:
+            raise SceneError(str(path), None, f"cannot read the scene file ({exc.strerror}).") from None
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise SceneError(str(path), None, f"not valid TOML: {exc}.") from None
+        return cls.from_dict(data, source=str(path), name=path.stem)
+
+    @classmethod
+    def from_dict(cls, data, source="<dict>", name="scene"):
+        """A scene from the nested sections of the file form (what ``to_dict`` returns)."""
+        if not isinstance(data, dict):
+            raise SceneError(source, None, f"a scene must be a table of sections; got {type(data).__name__}.")
+        fields = {}
+        for key, value in data.items():
+            if key in _LAYOUT[""]:
+                fields[_LAYOUT[""][key]] = value
+            elif key in _LAYOUT and key:
+                if not isinstance(value, dict):
+                    raise SceneError(source, key, f"must be a table `[{key}]`; got {_describe(value)}.")
+                for sub, subvalue in value.items():
+                    if sub not in _LAYOUT[key]:
+                        raise SceneError(source, f"{key}.{sub}",
+                                         f"unknown key; `[{key}]` takes {_listing(_LAYOUT[key])}.")
+                    fields[_LAYOUT[key][sub]] = subvalue
+            else:
+                known = [k for k in _LAYOUT[""]] + [f"[{k}]" for k in _LAYOUT if k]
+                raise SceneError(source, key, f"unknown key; a scene takes {', '.join(known)}.")
+        for required in dataclasses.fields(cls):
+            if required.default is dataclasses.MISSING and required.default_factory is dataclasses.MISSING \
+                    and required.name not in fields:
+                raise SceneError(source, _KEY_OF[required.name], "missing; it is required.")
+        return cls(**fields, source=source, name=name)
+
+    def replace(self, **changes):
+        """A copy with some fields changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+    # -- resolution --------------------------------------------------------------------------
+    def build_system(self):
+        """The catalogue system with this scene's parameters and effects."""
+        constructor = CATALOGUE[self.system]
+        try:
+            system = constructor(**self.parameters, eps=self.eps)
+        except (TypeError, ValueError) as exc:
+            raise SceneError(self.source, "system.parameters", str(exc)) from None
+        return system.with_effects(hamiltonian=self.hamiltonian)
+
+    def build_method(self):
+        """The integrator (wrapped in ``geomint.Projected`` when ``projection`` is on)."""
+        method = self._base_method()
+        if not self.projection:
+            return method
+        projected = getattr(importlib.import_module(__package__), "Projected", None)
+        if projected is None:
+            raise SceneError(self.source, "effects.projection",
+                             "projection is not available in this build of geomint (no geomint.Projected).")
+        return projected(method)
+
+    def _base_method(self):
+        options = dict(self.integrator)
+        name = options.pop("name")
+        key = _KEY_OF["integrator"]
+        try:
+            method = resolve(name)
+        except ValueError:
+            raise SceneError(self.source, key, f"unknown integrator {name!r}; known: {_listing(_integrators())}.") \
+                from None
+        known = [f.name for f in dataclasses.fields(method)]
+        for option in options:
+            if option not in known:
+                raise SceneError(self.source, f"{key}.{option}",
+                                 f"unknown option of {name!r}; it takes {_listing(known) if known else 'none'}.")
+        try:
+            return dataclasses.replace(method, **options)
+        except (TypeError, ValueError) as exc:
+            raise SceneError(self.source, key, str(exc)) from None
+
+    def initial_states(self, system=None):
+        """The initial states, ``(n, 3)``: the given points, or a sample of the level set."""
+        if self.points is not None:
+            return np.array(self.points, dtype=np.float64)
+        system = self.build_system() if system is None else system
+        spec = self.level_set
+        center = _level_set.energy_minimiser(system) if spec.get("center") is None else np.array(spec["center"])
+        try:
+            return _level_set.on_rays(system, spec["H0"], _level_set.fibonacci_directions(spec["n"]), center)
+        except ValueError as exc:
+            raise SceneError(self.source, "initial.level_set", str(exc)) from None
+
+    def resolved(self):
+        """This scene with every default written out; builds the system and method, so it validates fully."""
+        signature = inspect.signature(CATALOGUE[self.system])
+        parameters = {k: _plain(p.default) for k, p in signature.parameters.items() if k != "eps"}
+        parameters.update(self.parameters)
+        system = self.replace(parameters=parameters).build_system()
+        self.build_method()
+        base = self._base_method()
+        integrator = {"name": base.name, **{f.name: getattr(base, f.name) for f in dataclasses.fields(base)}}
+        level_set = None
+        if self.level_set is not None:
+            center = self.level_set.get("center")
+            center = _level_set.energy_minimiser(system).tolist() if center is None else center
+            level_set = {**self.level_set, "center": center}
+            self.replace(level_set=level_set).initial_states(system)
+        return self.replace(parameters=parameters, integrator=integrator, level_set=level_set)
+
+    @property
+    def steps_per_trajectory(self):
+        """Steps ``geomint.solve`` takes for each initial state."""
+        return step_count(0.0, self.duration, self.h)
+
+    @property
+    def n_trajectories(self):
+        """Number of initial states."""
+        return len(self.points) if self.points is not None else self.level_set["n"]
+
+    def to_dict(self):
+        """The file form: nested sections, ``Scene.from_dict(scene.to_dict()) == scene``."""
+        out = {}
+        for section, keys in _LAYOUT.items():
+            table = {key: _plain(getattr(self, name)) for key, name in keys.items()
+                     if getattr(self, name) is not None}
+            if section:
+                out[section] = table
+            else:
+                out.update(table)
+        if isinstance(self.integrator, dict) and list(self.integrator) == ["name"]:
+            out["integrator"]["method"] = self.integrator["name"]
+        return out
+
+    def __eq__(self, other):
+        return isinstance(other, Scene) and self.to_dict() == other.to_dict()
+
+
+@dataclass(frozen=True, eq=False)
+class SceneResult:
+    """What ``run_scene`` computed.
+
+    Attributes
+    ----------
+    scene : Scene
+        The resolved scene that ran.
+    system, method
+        The simulated system (effects applied) and the integrator.
+    solutions : list of Solution
+        One per initial state.
+    records : dict
+        Observable -> array ``(n_trajectories, rows, ...)`` for the recorded
+        observables, plus ``"t"`` and ``"rows"`` (valid rows per trajectory; a
+        trajectory that failed early is padded with NaN after its last row).
+    wall : list of float
+        Seconds per trajectory.
+    """
+
+    scene: Scene
+    system: object
+    method: object
+    solutions: list
+    records: dict
+    wall: list
+
+    @property
+    def success(self):
+        return all(sol.success for sol in self.solutions)
+
+    def summary(self):
+        """A JSON-ready dict: invariant errors, S rises, work, wall time, versions, the scene."""
+        eps = float(np.finfo(np.float64).eps)
+        trajectories = []
+        for sol, wall in zip(self.solutions, self.wall):
+            trajectories.append({
+                "x0": sol.x[0].tolist(), "x_final": sol.x_final.tolist(), "t_final": sol.t_final,
+                "H0": float(sol.H[0]), "S0": float(sol.S[0]), "S_final": float(sol.S[-1]),
+                "energy_error": sol.energy_error, "energy_error_in_eps": sol.energy_error / eps,
+                "S_rises": sol.S_rises, "success": sol.success, "status": sol.status, "message": sol.message,
+                "n_steps": sol.n_steps, "n_newton": sol.n_newton, "nfev": sol.nfev, "wall_s": wall,
+            })
+        totals = {
+            "trajectories": len(trajectories),
+            "failed": sum(not t["success"] for t in trajectories),
+            "max_energy_error": max(t["energy_error"] for t in trajectories),
+            "S_rises": sum(t["S_rises"] for t in trajectories),
+            **{k: sum(t[k] for t in trajectories) for k in ("n_steps", "n_newton", "nfev", "wall_s")},
+            "rows_saved_per_trajectory": int(self.records["rows"].max()),
+        }
+        return {
+            "scene": self.scene.to_dict(), "system": repr(self.system), "method": repr(self.method),
+            "totals": totals, "trajectories": trajectories, "versions": versions(),
+            "notes": "energy_error = max |H - H0|/|H0| and S_rises (S up by more than 16 ulps) over the saved "
+                     "states; energy_error_in_eps is it in units of machine epsilon.",
+        }
+
+
+def run_scene(scene, progress=None):
+    """Run a scene; ``progress(n)`` is called with the number of steps done since its last call.
+
+    Validates the scene fully (``Scene.resolved``), integrates each initial
+    state with ``geomint.solve``, and computes only the recorded observables.
+    """
+    scene = scene.resolved()
+    system = scene.build_system()
+    method = scene.build_method()
+    states = scene.initial_states(system)
+    save_every = None if scene.every == "final" else scene.every
+    solutions, wall = [], []
+    for x0 in states:
+        done = [0]
+
+        def report(steps, done=done):
+            progress(steps - done[0])
+            done[0] = steps
+
+        start = time.perf_counter()
+        sol = solve(system, x0, (0.0, scene.duration), scene.h, method=method, save_every=save_every,
+                    progress=None if progress is None else report)
+        wall.append(time.perf_counter() - start)
+        solutions.append(sol)
+    records = _records(scene.record, system, solutions)
+    return SceneResult(scene=scene, system=system, method=method, solutions=solutions, records=records, wall=wall)
+
+
+def _records(names, system, solutions):
+    rows = np.array([len(sol.t) for sol in solutions])
+    out = {"rows": rows, "t": _stack([sol.t for sol in solutions], rows.max())}
+    for name in names:
+        out[name] = _stack([np.asarray(OBSERVABLES[name][1](system, sol)) for sol in solutions], rows.max())
+    return out
+
+
+def _stack(arrays, rows):
+    out = np.full((len(arrays), rows) + arrays[0].shape[1:], np.nan)
+    for i, array in enumerate(arrays):
+        out[i, : len(array)] = array
+    return out
+
+
+def versions():
+    """Versions of geomint, Python and the numerical libraries, for summaries."""
+    import platform
+
+    import numba
+    import scipy
+
+    from . import __version__
+
+    return {"geomint": __version__, "python": platform.python_version(), "numpy": np.__version__,
+            "scipy": scipy.__version__, "numba": numba.__version__}
+
+
+def bundled_scenes():
+    """Names of the scenes shipped with geomint -> their paths."""
+    from importlib import resources
+
+    folder = resources.files("geomint") / "scenes"
+    return {p.name[:-5]: p for p in sorted(folder.iterdir(), key=lambda p: p.name) if p.name.endswith(".toml")}
+
+
+def load(scene):
+    """A ``Scene`` from a file path or the name of a bundled scene."""
+    path = Path(scene)
+    if path.is_file():
+        return Scene.from_toml(path)
+    bundled = bundled_scenes()
+    stem = scene[:-5] if scene.endswith(".toml") else scene
+    if stem in bundled:
+        return Scene.from_toml(bundled[stem])
+    raise SceneError(scene, None, f"no such scene file, nor a bundled scene; bundled: {_listing(bundled)}.")
+
+
+# -- checks (the boundary) ------------------------------------------------------------------
+class _Checker:
+    def __init__(self, source):
+        self.source = source
+
+    def fail(self, name, problem):
+        raise SceneError(self.source, _KEY_OF.get(name, name), problem)
+
+    def real(self, name, value, minimum=None, positive=False):
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+            self.fail(name, f"must be a number; got {_describe(value)}.")
+        value = float(value)
+        if not math.isfinite(value):
+            self.fail(name, f"must be finite; got {value!r}.")
+        if positive and not value > 0.0:
+            self.fail(name, f"must be > 0; got {value!r}.")
+        if minimum is not None and value < minimum:
+            self.fail(name, f"must be >= {minimum:g}; got {value!r}.")
+        return value
+
+    def boolean(self, name, value):
+        if not isinstance(value, (bool, np.bool_)):
+            self.fail(name, f"must be true or false; got {_describe(value)}.")
+        return bool(value)
+
+    def string(self, name, value):
+        if not isinstance(value, str):
+            self.fail(name, f"must be a string; got {_describe(value)}.")
+        return value
+
+    def choice(self, name, value, known, what):
+        self.string(name, value)
+        if value not in known:
+            self.fail(name, f"unknown {what} {value!r}; known: {_listing(known)}.")
+        return value
+
+    def numbers(self, name, value, count, what="numbers"):
+        if isinstance(value, (str, dict)) or not hasattr(value, "__len__") or len(value) != count:
+            self.fail(name, f"must be a list of {count} {what}; got {_describe(value)}.")
+        return tuple(self.real(name, v) for v in value)
+
+    def vector(self, name, value):
+        return self.numbers(name, value, 3)
+
+    def points(self, name, value):
+        if isinstance(value, (str, dict)) or not hasattr(value, "__len__") or len(value) == 0:
+            self.fail(name, f"must be a non-empty list of points [x, y, z]; got {_describe(value)}.")
+        return tuple(self.vector(f"{_KEY_OF[name]}[{i}]", p) for i, p in enumerate(value))
+
+    def level_set(self, value):
+        key = _KEY_OF["level_set"]
+        if not isinstance(value, dict):
+            self.fail("level_set", f"must be a table {{ H0 = ..., n = ... }}; got {_describe(value)}.")
+        for sub in value:
+            if sub not in _LEVEL_SET_KEYS:
+                self.fail(f"{key}.{sub}", f"unknown key; `level_set` takes {_listing(_LEVEL_SET_KEYS)}.")
+        for sub in ("H0", "n"):
+            if sub not in value:
+                self.fail(f"{key}.{sub}", "missing; it is required.")
+        n = value["n"]
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+            self.fail(f"{key}.n", f"must be an integer >= 1; got {_describe(n)}.")
+        center = value.get("center")
+        return {"H0": self.real(f"{key}.H0", value["H0"]), "n": int(n),
+                "center": None if center is None else list(self.vector(f"{key}.center", center))}
+
+    def integrator(self, value):
+        if isinstance(value, str):
+            return {"name": value}
+        if not isinstance(value, dict) or "name" not in value:
+            self.fail("integrator", f"must be a short name or a table {{ name = ..., option = ... }}; "
+                                    f"got {_describe(value)}.")
+        self.string(f"{_KEY_OF['integrator']}.name", value["name"])
+        return dict(value)
+
+    def names(self, name, value, known, what):
+        if isinstance(value, str) or not isinstance(value, (list, tuple)):
+            self.fail(name, f"must be a list of names; got {_describe(value)}.")
+        for item in value:
+            self.choice(name, item, known, what)
+        return tuple(value)
+
+    def planes(self, name, value):
+        if isinstance(value, (str, dict)) or not isinstance(value, (list, tuple)):
+            self.fail(name, f"must be a list of planes [a, b, c, d] (a x + b y + c z = d); got {_describe(value)}.")
+        planes = []
+        for i, plane in enumerate(value):
+            key = f"{_KEY_OF[name]}[{i}]"
+            numbers = self.numbers(key, plane, 4, "numbers [a, b, c, d] (a x + b y + c z = d)")
+            if not any(numbers[:3]):
+                self.fail(key, f"the normal (a, b, c) must not be zero; got {list(numbers)}.")
+            planes.append(numbers)
+        return tuple(planes)
+
+    def every(self, value):
+        if value == "final":
+            return value
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+            self.fail("every", f"must be an integer >= 1 or \"final\"; got {_describe(value)}.")
+        return int(value)
+
+    def parameters(self, system, value):
+        if not isinstance(value, dict):
+            self.fail("parameters", f"must be a table of parameter = value; got {_describe(value)}.")
+        known = [k for k in inspect.signature(CATALOGUE[system]).parameters if k != "eps"]
+        out = {}
+        for key, item in value.items():
+            if key == "eps":
+                self.fail(f"system.parameters.{key}", "set the dissipation as `effects.eps`.")
+            if key not in known:
+                self.fail(f"system.parameters.{key}", f"unknown parameter of {system!r}; it takes {_listing(known)}.")
+            if isinstance(item, (list, tuple)):
+                out[key] = [self.real(f"system.parameters.{key}", v) for v in item]
+            else:
+                number = self.real(f"system.parameters.{key}", item)
+                out[key] = int(item) if isinstance(item, (int, np.integer)) else number
+        return out
+
+
+def _integrators():
+    from .integrators.base import _short_names
+
+    return sorted(_short_names())
+
+
+def _listing(names):
+    return ", ".join(sorted(str(n) for n in names))
+
+
+def _describe(value):
+    return f"{value!r} ({type(value).__name__})"
+
+
+def _plain(value):
+    """A value TOML and JSON can hold: tuples and arrays become lists."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (tuple, list, np.ndarray)):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value

@@ -1,0 +1,119 @@
+"""The command line: run, show, list, drift; exit codes; errors without tracebacks."""
+
+import json
+import os
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from geomint.cli import BAD_INPUT, FAILED, OK, main
+from geomint.scene import Scene, SceneError, bundled_scenes
+from test_scene_errors import VALID
+
+SHORT = (
+    VALID.replace('title = "test"', 'title = "short relaxing rigid body"').replace("eps = 0.1", "eps = 0.5")
+    .replace("points = [[0.6, 0.0, 0.8]]", "level_set = { H0 = 0.6471, n = 3 }").replace("duration = 0.5", "duration = 2.0")
+    .replace("every = 1", 'record = ["x", "S", "dS_dt"]\nevery = 4')
+    .replace("figures = []", 'figures = ["overview", "invariants", "trajectories"]')
+)
+
+
+def _scene(tmp_path, text=SHORT, name="short"):
+    path = tmp_path / f"{name}.toml"
+    path.write_text(text)
+    return path
+
+
+def test_run_writes_data_summary_and_figures(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["run", str(_scene(tmp_path)), "--out", str(out)]) == OK
+    report = capsys.readouterr().out
+    assert "3 trajectories, 120 steps" in report and "S rises: 0" in report
+    data = np.load(out / "short.npz")
+    assert sorted(data.files) == ["S", "dS_dt", "rows", "status", "t", "x", "x0"]
+    assert data["x"].shape == (3, 11, 3) and np.all(data["status"] == 0)
+    summary = json.loads((out / "short.summary.json").read_text())
+    assert summary["totals"]["n_steps"] == 120 and summary["totals"]["S_rises"] == 0
+    assert summary["totals"]["max_energy_error"] < 1e-14
+    assert summary["totals"]["n_newton"] > 0 and summary["totals"]["wall_s"] > 0
+    assert set(summary["versions"]) == {"geomint", "python", "numpy", "scipy", "numba"}
+    assert summary["scene"]["integrator"]["method"] == {"name": "gonzalez", "max_newton_iter": 50}
+    for figure in ("overview", "invariants", "trajectories"):
+        png = out / f"short.{figure}.png"
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
+
+
+def test_quiet_prints_nothing(tmp_path, capsys):
+    assert main(["run", str(_scene(tmp_path)), "--out", str(tmp_path / "q"), "--quiet"]) == OK
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err == ""
+
+
+def test_numerical_failure_exits_1_and_keeps_results(tmp_path, capsys):
+    text = SHORT.replace('method = "gonzalez"', 'method = { name = "gonzalez", max_newton_iter = 1 }')
+    out = tmp_path / "fail"
+    assert main(["run", str(_scene(tmp_path, text)), "--out", str(out), "--quiet"]) == FAILED
+    assert "geomint: run failed: x0 = " in capsys.readouterr().err
+    summary = json.loads((out / "short.summary.json").read_text())
+    assert summary["totals"]["failed"] == 3
+    assert "Step 1 (t = 0 -> 0.05) failed: the Newton iteration did not converge" in summary["trajectories"][0]["message"]
+
+
+@pytest.mark.parametrize("command", ["run", "show"])
+def test_bad_scene_exits_2_with_one_line_and_no_traceback(tmp_path, capsys, command):
+    path = _scene(tmp_path, SHORT.replace("eps = 0.5", "eps = -0.5"))
+    assert main([command, str(path)]) == BAD_INPUT
+    err = capsys.readouterr().err
+    assert err == f"geomint: error: {path}: `effects.eps`: must be >= 0; got -0.5.\n"
+    with pytest.raises(SceneError, match=r"`effects.eps`"):
+        main([command, str(path), "--traceback"])
+
+
+def test_unknown_scene_exits_2(capsys):
+    assert main(["show", "no_such_scene"]) == BAD_INPUT
+    assert "no_such_scene: no such scene file, nor a bundled scene" in capsys.readouterr().err
+
+
+def test_show_prints_the_resolved_scene_as_toml(capsys):
+    assert main(["show", "oscillator_z2"]) == OK
+    text = capsys.readouterr().out
+    data = tomllib.loads(text)
+    resolved = Scene.from_toml(bundled_scenes()["oscillator_z2"]).resolved()
+    assert Scene.from_dict(data, name="oscillator_z2") == resolved
+    assert data["initial"]["level_set"]["center"] == [0.0, 0.0, 0.0]
+    assert text.count("\n#   [") == 8  # the sampled initial states
+
+
+def test_list_names_systems_integrators_and_scenes(capsys):
+    assert main(["list"]) == OK
+    text = capsys.readouterr().out
+    for name in ["relaxing_rigid_body", "degenerate_example", "gonzalez", "rk4", "dS_dt", "overview",
+                 *bundled_scenes()]:
+        assert f"  {name} " in text
+
+
+def test_drift_still_runs(capsys):
+    assert main(["drift", "--steps", "200"]) == OK
+    assert "gonzalez" in capsys.readouterr().out
+
+
+def test_console_script_runs_a_bundled_scene(tmp_path):
+    """The README's main job, as a user runs it (a fresh process)."""
+    done = subprocess.run(
+        [sys.executable, "-m", "geomint.cli", "run", "oscillator_s0", "--out", str(tmp_path)],
+        capture_output=True, text=True, cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])},
+    )
+    assert done.returncode == OK, done.stderr
+    assert (tmp_path / "oscillator_s0.overview.png").exists()
+    assert (tmp_path / "oscillator_s0.summary.json").exists()
+
+
+def test_bad_argument_exits_2(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["run"])
+    assert exit_info.value.code == BAD_INPUT

@@ -1,0 +1,45 @@
+"""Compile once: kernels load from numba's disk cache in a new process; a pure-Python lane works."""
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+FIRST_SOLVE = """
+import time
+start = time.perf_counter()
+import geomint
+from geomint._kernels import driver
+body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
+sol = geomint.solve(body, [0.4536, 0.0, 0.8912], (0.0, 1.0), 0.05)
+stats = driver.integrate[body.form].stats
+print(sum(stats.cache_hits.values()), sum(stats.cache_misses.values()), sol.success, time.perf_counter() - start)
+"""
+
+
+def _python(code, **env):
+    result = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=900, env={**os.environ, **env}
+    )
+    assert result.returncode == 0, result.stderr
+    return result.stdout
+
+
+def test_a_second_process_loads_the_kernels_from_the_cache():
+    _python(FIRST_SOLVE)  # compiles if this machine has not yet
+    hits, misses, success, seconds = _python(FIRST_SOLVE).split()
+    print(f"first solve in a new process (import included): {float(seconds):.2f} s")
+    assert (int(hits), int(misses), success) == (1, 0, "True")
+
+
+@pytest.mark.skipif(os.environ.get("NUMBA_DISABLE_JIT") == "1", reason="this test starts the pure-Python lane")
+def test_the_pure_python_lane_passes():
+    """``NUMBA_DISABLE_JIT=1`` runs the kernels as Python (debugging, coverage): the fast subset passes."""
+    result = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-m", "nojit", "-p", "no:cacheprovider", os.path.dirname(__file__)],
+        capture_output=True, text=True, timeout=900, env={**os.environ, "NUMBA_DISABLE_JIT": "1"},
+    )
+    print(result.stdout[-2000:])
+    assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-2000:]
+    assert " passed" in result.stdout and " failed" not in result.stdout
