@@ -67,13 +67,10 @@ def solve(system, x0, t_span, h, method="gonzalez", save_every=1, progress=None)
     save_every = _check_save_every(save_every, n_steps)
     rows = n_steps // save_every + 2
     out_t, out_x, out_H, out_S = np.empty(rows), np.empty((rows, 3)), np.empty(rows), np.empty(rows)
-    out_t[0], out_x[0] = t0, x0
-    out_H[0], out_S[0] = system.H(x0), system.S(x0)
     counters = np.zeros(_driver.N_COUNTERS, dtype=np.int64)
-    counters[_driver.ROWS] = 1
     residual = np.zeros(1)
     code, coeffs, iopts = integrator.bind(system, x0)
-    state = np.concatenate([x0, np.zeros(3), [out_H[0]]])  # state, its compensation, the energy anchor
+    state = np.concatenate([x0, np.zeros(3), [np.nan]])  # state, its compensation, the energy anchor
     chunk = n_steps if progress is None else max(1, min(n_steps, 100_000))
     integrate = _driver.integrate[system.form]
     for k_begin in range(0, n_steps, chunk):

@@ -16,6 +16,7 @@ from typing import Callable
 import numba
 import numpy as np
 from numba.core.dispatcher import Dispatcher
+from numba.core.types.function_type import CompileResultWAP
 
 from ._kernels import field as _field
 from ._kernels.signatures import vec as _vec
@@ -130,9 +131,16 @@ class MetriplecticSystem:
     # -- the model as kernels receive it ------------------------------------------------
     @property
     def model(self):
-        """``(H, grad_H, S, grad_S, J or P, params)``: the leading arguments of every kernel."""
-        f = self.functions
-        return (f.H, f.grad_H, f.S, f.grad_S, f.poisson, self._params)
+        """``(H, grad_H, S, grad_S, J or P, params)``: the leading arguments of every kernel.
+
+        The functions are handed over as compiled first-class function objects
+        (their machine addresses, looked up once), not as dispatchers, which
+        numba would resolve anew at every kernel call.
+        """
+        if "_compiled" not in self.__dict__:
+            f = self.functions
+            self._compiled = tuple(_first_class(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S, f.poisson))
+        return (*self._compiled, self._params)
 
     @property
     def params(self):
@@ -206,7 +214,8 @@ class MetriplecticSystem:
 
     def xi(self, x):
         """The field ``xi_P + eps xi_g`` (without ``xi_P`` when the Hamiltonian part is off)."""
-        return (self.xi_P(x) if self.hamiltonian else 0.0) + self.eps * self.xi_g(x)
+        _, _, gh, gs, j = self._evaluate(x)
+        return (np.cross(gh, j) if self.hamiltonian else 0.0) + self.eps * np.cross(gh, np.cross(gh, gs))
 
     def g(self, x):
         """The metric ``grad H (x) grad H - I |grad H|^2``, shape (3, 3) or (n, 3, 3)."""
@@ -241,6 +250,13 @@ def _compiled_return_type(name, fn):
             f"{type(exc).__name__}: {str(exc).splitlines()[0]}. {_HOW_TO_JIT}"
         ) from exc
     return fn.overloads[_SIGNATURE].signature.return_type
+
+
+def _first_class(fn):
+    """A jitted user function as a first-class function object for the kernels."""
+    if numba.config.DISABLE_JIT:
+        return fn
+    return CompileResultWAP(fn.overloads[_SIGNATURE])
 
 
 def _scalar_function(name, fn):

@@ -37,7 +37,9 @@ def integrate(
 
     ``state`` (7,) holds the state, its compensation (the rounding error
     carried by compensated summation, see ``steps.advance``) and the energy
-    every step is anchored to, H(x0) (see ``steps.discrete_gradient_step``).
+    every step is anchored to, H(x0) (see ``steps.discrete_gradient_step``),
+    NaN until the first chunk sets it; the first chunk also saves the initial
+    state as row 0.
 
     Step ``k`` goes from ``t0 + k h`` to ``t0 + (k+1) h`` (the last one has
     length ``h_last``).  States ``k`` with ``k % save_every == 0`` and the final
@@ -53,6 +55,9 @@ def integrate(
     buf[0], buf[1], buf[2] = x
     H_x = H(buf, params)
     S_x = S(buf, params)
+    if k_begin == 0:
+        state[6] = H_x
+        _save(out_t, out_x, out_H, out_S, counters, t0, x, H_x, S_x)
     H_anchor = state[6]
     for k in range(k_begin, k_end):
         hk = h_last if k == n_steps - 1 else h

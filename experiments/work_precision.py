@@ -1,0 +1,207 @@
+"""Work-precision: what accuracy costs in time ("cost to reach error 1e-4, 1e-8, 1e-12").
+
+For each problem, every geomint method runs over a sweep of step sizes and
+every scipy method over a sweep of tolerances (rtol, atol = 1e-3 rtol); the
+global error is ``|x(T) - x_ref(T)|_2``, the cost the median wall time of
+repeated runs after a warm-up (compilation excluded) and the field
+evaluations.  References: the closed form for the oscillator (checked against
+a tight DOP853), DOP853 at rtol = 2.5e-14 elsewhere, whose uncertainty is
+estimated by its distance to DOP853 at rtol = 1e-13 and printed; errors below
+it are not trusted.
+"""
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+import geomint
+
+from . import problems
+from .compiled import scipy_rhs
+from .methods import BASELINE_RK4, BASELINE_SCIPY, SCIPY_SWEEP, geomint_methods
+from .report import figure, markdown_table, save
+from .runs import median_time, not_applicable, scipy_solution
+
+TARGETS = (1e-4, 1e-8, 1e-12)
+TIGHTEST_RTOL = 2.5e-14
+
+
+@dataclass(frozen=True)
+class SweepSettings:
+    t_end: float
+    steps: tuple
+    exponents: tuple
+    repeats: int
+    point_budget: float
+    scipy_cutoff: float
+    sweep_budget: float
+
+
+FULL = SweepSettings(20.0, tuple(int(n) for n in np.geomspace(20, 2e5, 17).round()), tuple(range(3, 14)), 5, 2.0, 8.0, 15.0)
+QUICK = SweepSettings(20.0, tuple(int(n) for n in np.geomspace(20, 2e4, 7).round()), tuple(range(3, 14, 2)), 3, 0.5, 1.0, 3.0)
+
+
+def wp_problems():
+    return [problems.relaxing_rigid_body(eps=0.1), problems.oscillator(eps=1.0), problems.quartic_rigid_body(eps=0.1)]
+
+
+@dataclass
+class Curve:
+    """One method's sweep: cost and error per run, in the order run."""
+
+    label: str
+    kind: str
+    structure_preserving: bool = False
+    wall: list = field(default_factory=list)
+    nfev: list = field(default_factory=list)
+    error: list = field(default_factory=list)
+    setting: list = field(default_factory=list)
+
+
+def reference(problem, t_end):
+    """``(x_ref(T), uncertainty, note)``."""
+    tight = scipy_solution(problem.system, problem.x0, (0.0, t_end), "DOP853", TIGHTEST_RTOL).x_final
+    looser = scipy_solution(problem.system, problem.x0, (0.0, t_end), "DOP853", 1e-13).x_final
+    if problem.exact is not None:
+        exact = problem.exact(t_end)
+        return exact, float(np.linalg.norm(looser - tight)), (
+            f"closed form; |closed form - DOP853(rtol={TIGHTEST_RTOL:g})| = {np.linalg.norm(exact - tight):.2g}")
+    spread = float(np.linalg.norm(looser - tight))
+    return tight, spread, f"DOP853 rtol={TIGHTEST_RTOL:g}; |ref - DOP853(rtol=1e-13)| = {spread:.2g}"
+
+
+def geomint_curve(problem, method, settings, x_ref):
+    curve = Curve(method.label, "geomint", method.structure_preserving)
+    t_span = (0.0, settings.t_end)
+    geomint.solve(problem.system, problem.x0, t_span, settings.t_end / 4, method=method.integrator, save_every=None)
+    plateau = 0
+    start = time.perf_counter()
+    for n in settings.steps:
+        if time.perf_counter() - start > settings.sweep_budget:
+            break
+        h = settings.t_end / n
+        seconds, solution = median_time(
+            lambda: geomint.solve(problem.system, problem.x0, t_span, h, method=method.integrator, save_every=None),
+            settings.repeats, settings.point_budget)
+        if not solution.success:
+            continue
+        curve.wall.append(seconds)
+        curve.nfev.append(solution.nfev)
+        curve.error.append(float(np.linalg.norm(solution.x_final - x_ref)))
+        curve.setting.append(h)
+        plateau = plateau + 1 if curve.error[-1] < 1e-13 else 0
+        if plateau == 2:
+            break
+    return curve
+
+
+def scipy_curve(problem, name, settings, x_ref, rhs):
+    curve = Curve(name, "scipy")
+    t_span = (0.0, settings.t_end)
+    for exponent in settings.exponents:
+        rtol = 10.0 ** -exponent
+        seconds, solution = median_time(
+            lambda: scipy_solution(problem.system, problem.x0, t_span, name, rtol, rhs=rhs),
+            settings.repeats, settings.point_budget)
+        curve.wall.append(seconds)
+        curve.nfev.append(solution.nfev)
+        curve.error.append(float(np.linalg.norm(solution.x_final - x_ref)))
+        curve.setting.append(rtol)
+        if seconds > settings.scipy_cutoff:
+            break
+    return curve
+
+
+def cost_to_reach(cost, error, target):
+    """Cost at which ``error`` first falls to ``target``, interpolated in log-log; NaN if never."""
+    cost, error = np.asarray(cost, float), np.asarray(error, float)
+    order = np.argsort(cost)
+    cost, error = cost[order], error[order]
+    below = np.flatnonzero(error <= target)
+    if below.size == 0:
+        return np.nan
+    i = below[0]
+    if i == 0 or error[i - 1] == error[i]:
+        return float(cost[i])
+    w = (np.log(target) - np.log(error[i - 1])) / (np.log(error[i]) - np.log(error[i - 1]))
+    return float(np.exp(np.log(cost[i - 1]) + w * (np.log(cost[i]) - np.log(cost[i - 1]))))
+
+
+def cost_table(curves):
+    """Rows: method, then per target: wall ms, x DOP853, x RK4, field evals."""
+    by_label = {c.label: c for c in curves}
+    rows = []
+    for curve in curves:
+        row = [curve.label, "yes" if curve.structure_preserving else "no"]
+        for target in TARGETS:
+            wall = cost_to_reach(curve.wall, curve.error, target)
+            ratios = [wall / cost_to_reach(by_label[b].wall, by_label[b].error, target) if b in by_label else np.nan
+                      for b in (BASELINE_SCIPY, BASELINE_RK4)]
+            row += [1e3 * wall, *ratios, cost_to_reach(curve.nfev, curve.error, target)]
+        rows.append(row)
+    return rows
+
+
+COST_HEADERS = ["method", "H exact & S monotone"] + [
+    f"{label} @{target:g}" for target in TARGETS for label in ("ms", "/DOP853", "/RK4", "field evals")]
+
+
+def fastest_structure_preserving(curves, target=1e-8):
+    """``(label, wall s, speed-up over DOP853, ratio to RK4)`` of the fastest H-exact, S-monotone method."""
+    costs = {c.label: cost_to_reach(c.wall, c.error, target) for c in curves}
+    candidates = [c.label for c in curves if c.structure_preserving and np.isfinite(costs[c.label])]
+    if not candidates:
+        return None
+    best = min(candidates, key=costs.get)
+    return best, costs[best], costs.get(BASELINE_SCIPY, np.nan) / costs[best], costs[best] / costs.get(BASELINE_RK4, np.nan)
+
+
+def plot(problem, curves, uncertainty, axes):
+    for curve in curves:
+        style = "o-" if curve.kind == "geomint" else "s--"
+        axes[0].loglog(curve.wall, curve.error, style, ms=3, label=curve.label)
+        axes[1].loglog(curve.nfev, curve.error, style, ms=3, label=curve.label)
+    for ax, xlabel in zip(axes, ("wall time [s] (median, compiled)", "field evaluations")):
+        ax.axhline(max(uncertainty, 1e-16), color="grey", lw=0.8, ls=":")
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel("global error |x(T) - x_ref(T)|")
+        ax.set_title(problem.title, fontsize=9)
+        ax.grid(True, alpha=0.3)
+    axes[0].legend(fontsize=6)
+
+
+def run_problem(problem, settings, methods, log=print):
+    x_ref, uncertainty, note = reference(problem, settings.t_end)
+    curves = [geomint_curve(problem, m, settings, x_ref) for m in methods
+              if not_applicable(m.integrator, problem.system, problem.x0) is None]
+    log(f"  {problem.name}: geomint sweeps done")
+    rhs = scipy_rhs(problem.system)
+    rhs(0.0, problem.x0)
+    curves += [scipy_curve(problem, name, settings, x_ref, rhs) for name in SCIPY_SWEEP]
+    log(f"  {problem.name}: scipy sweeps done")
+    return curves, uncertainty, note
+
+
+def main(quick=False, out=None, log=print):
+    """Run the work-precision sweeps; write ``work_precision_<problem>.png``; return the markdown section and targets."""
+    settings = QUICK if quick else FULL
+    methods = geomint_methods()
+    parts = ["## Work-precision: what accuracy costs",
+             f"Global error at T = {settings.t_end:g} against median wall time ({settings.repeats} repeats after a "
+             "warm-up run, so compilation is excluded) and against field evaluations. geomint: fixed steps "
+             f"h = T/n, n in {list(settings.steps)}; scipy: rtol = 10^-k for k in {list(settings.exponents)}, "
+             f"atol = 1e-3 rtol; a geomint sweep stops refining after {settings.sweep_budget:g} s. The dotted line "
+             f"is the reference's uncertainty. Ratios are to the same run's {BASELINE_SCIPY} and {BASELINE_RK4} "
+             "(>1: slower)."]
+    targets = {}
+    out_kw = {} if out is None else {"out": out}
+    for problem in wp_problems():
+        curves, uncertainty, note = run_problem(problem, settings, methods, log)
+        fig, axes = figure(2, 1)
+        plot(problem, curves, uncertainty, axes)
+        name = save(fig, f"work_precision_{problem.name}.png", **out_kw)
+        targets[problem.name] = fastest_structure_preserving(curves)
+        parts += [f"### {problem.title}", f"Reference: {note}.", f"![work-precision {problem.name}]({name})",
+                  markdown_table(COST_HEADERS, cost_table(curves))]
+    return "\n\n".join(parts), targets

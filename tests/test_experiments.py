@@ -1,0 +1,116 @@
+"""The experiments' own building blocks, on tiny sizes (the experiments themselves run in docs/)."""
+
+import types
+
+import numpy as np
+import pytest
+
+import geomint
+from experiments import drift, problems
+from experiments.compiled import fixed_point_gonzalez
+from experiments.methods import geomint_methods
+from experiments.runs import Windows, growth_law, not_applicable, scipy_solution
+from experiments.work_precision import cost_to_reach
+
+
+@pytest.mark.parametrize(("coefficient", "eps"), [(1.0, 0.3), (0.5, 1.0), (2.0, 0.05)])
+def test_oscillator_closed_form_matches_a_tight_solve(coefficient, eps):
+    problem = problems.oscillator(eps=eps, coefficient=coefficient)
+    solution = scipy_solution(problem.system, problem.x0, (0.0, 7.0), "DOP853", 1e-12)
+    exact = problem.exact(solution.t)
+    assert np.max(np.abs(exact - solution.x)) < 1e-9
+    assert np.max(np.abs(exact[-1] - problem.exact(7.0))) == 0.0
+
+
+@pytest.mark.parametrize("build", [problems.relaxing_rigid_body, problems.quartic_rigid_body])
+def test_rigid_body_attractor_is_on_the_level_set_and_is_reached(build):
+    problem = build(eps=1.0)
+    H0 = problem.system.H(problem.x0)
+    assert abs(problem.system.H(problem.attractor) - H0) < 1e-14
+    assert np.count_nonzero(problem.attractor) == 1 and problem.attractor[2] > 0
+    if problem.system.params.size == 3:
+        assert abs(problem.system.S(problem.attractor) - H0 / problem.system.params[2]) < 1e-14
+    solution = geomint.solve(problem.system, problem.x0, (0.0, 100.0), 0.05, save_every=None)
+    assert np.linalg.norm(solution.x_final - problem.attractor) < 1e-6
+
+
+def test_geomint_methods_lists_what_the_module_has():
+    labels = [m.label for m in geomint_methods()]
+    assert {"Gonzalez", "RK4"} <= set(labels) and len(labels) == len(set(labels))
+    sparse = types.SimpleNamespace(Integrator=geomint.Integrator, Gonzalez=geomint.Gonzalez, __all__=["Gonzalez"])
+    only = geomint_methods(sparse)
+    assert [m.label for m in only] == ["Gonzalez"] and only[0].structure_preserving
+
+
+def test_geomint_methods_reports_constructors_that_reject_the_call():
+    def refuses(*args):
+        raise TypeError("needs a sub-integrator")
+
+    module = types.SimpleNamespace(Integrator=geomint.Integrator, RK4=geomint.RK4, Projected=refuses, __all__=[])
+    skipped = []
+    assert [m.label for m in geomint_methods(module, skipped)] == ["RK4"]
+    assert skipped == ["Projected(RK4): needs a sub-integrator"]
+
+
+@pytest.mark.parametrize(("power", "law"), [(0.0, "flat"), (0.5, "sqrt t"), (1.0, "t"), (2.0, "t^2.0")])
+def test_growth_law_classifies_power_laws(power, law):
+    t = np.geomspace(1.0, 1e5, 30)
+    p, found = growth_law(t, 1e-15 * t**power * (1 + 0.1 * np.sin(t)), t_min=10.0)
+    assert found == law and abs(p - power) < 0.1
+
+
+def test_windows_keep_the_maximum_of_each_window():
+    windows = Windows.log_spaced(1.0, 100.0, 2)
+    windows.add(np.array([0.0, 5.0, 9.0, 50.0]), np.array([1.0, 3.0, 2.0, 7.0]))
+    assert windows.maxima.tolist() == [3.0, 7.0]
+    windows.add(np.array([99.0]), np.array([8.0]))
+    assert windows.maxima.tolist() == [3.0, 8.0]
+
+
+def test_cost_to_reach_interpolates_in_log_log():
+    cost, error = [100.0, 1.0, 10.0], [1e-6, 1e-2, 1e-4]
+    assert cost_to_reach(cost, error, 1e-5) == pytest.approx(10**1.5)
+    assert cost_to_reach(cost, error, 1e-2) == 1.0
+    assert np.isnan(cost_to_reach(cost, error, 1e-8))
+
+
+def test_fixed_point_emulation_matches_geomint_and_loosens_with_the_tolerance():
+    problem = problems.quartic_rigid_body(eps=0.1)
+    run = fixed_point_gonzalez(problem.system)
+    h, n = 0.05, 200
+    tight_error, tight_rises, _, x_tight = run(problem.x0, h, n, 0.0, 100)
+    solution = geomint.solve(problem.system, problem.x0, (0.0, n * h), h, method=geomint.Gonzalez())
+    assert np.max(np.abs(x_tight - solution.x_final)) < 1e-12
+    H0 = problem.system.H(problem.x0)
+    assert tight_error / H0 < 1e-14 and tight_rises == 0
+    loose_error = run(problem.x0, h, n, 1e-5, 100)[0]
+    assert loose_error / H0 > 100 * tight_error / H0
+
+
+def test_quick_drift_on_the_relaxing_body_separates_the_methods():
+    problem = problems.relaxing_rigid_body(eps=0.1)
+    settings = drift.DriftSettings(50.0, {}, 0.1, 5, 1.0, 5.0, 5.0)
+    runs = {run.label: run for run in drift.run_problem(problem, settings, geomint_methods(), log=lambda _: None)}
+    gonzalez, rk4 = runs["Gonzalez"], runs["RK4"]
+    assert gonzalez.complete and gonzalez.n_steps == 500 and gonzalez.S_rises == 0
+    round_off = gonzalez.n_steps * np.finfo(float).eps  # at most an ulp a step (no compensated summation here)
+    assert np.nanmax(gonzalez.windows.maxima) < round_off < 1e-4 * np.nanmax(rk4.windows.maxima)
+    assert all(run.t_reached > 0 and run.nfev > 0 for run in runs.values())
+    rows = drift.table_rows(problem, runs.values(), settings)
+    assert len(rows) == len(runs) and all(len(row) == len(drift.HEADERS) for row in rows)
+
+
+def test_free_rigid_body_closed_form_matches_a_tight_solve_and_the_published_period():
+    problem = problems.free_rigid_body()
+    solution = scipy_solution(problem.system, problem.x0, (0.0, 30.0), "DOP853", 1e-12)
+    assert np.max(np.abs(problem.exact(solution.t) - solution.x)) < 1e-10
+    period = 10.7314652348828  # REFERENCES.md R1
+    assert np.max(np.abs(problem.exact(np.array([period, 7 * period])) - problem.x0)) < 1e-12
+    with pytest.raises(ValueError, match="x0 = "):
+        problems.free_rigid_body_exact([0.6, 0.1, 0.8], problems.INERTIA, 1.0)
+
+
+def test_not_applicable_names_the_error_of_a_method_that_cannot_run():
+    problem = problems.relaxing_rigid_body(eps=0.1)
+    assert not_applicable(geomint.RK4(), problem.system, problem.x0) is None
+    assert not_applicable(geomint.Integrator(), problem.system, problem.x0).startswith("NotImplementedError")
