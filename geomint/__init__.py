@@ -1,7 +1,10 @@
 """geomint: structure-preserving integrators for metriplectic systems in R^3."""
 
-from . import level_set, systems
-from .integrators import AVF, RK4, DampedGonzalez, Gonzalez, Integrator, ItohAbe, SymmetrizedItohAbe
+from . import level_set, reference, systems
+from .integrators import (
+    AVF, RK4, Composition, DampedGonzalez, Gonzalez, Integrator, ItohAbe, KahanLi6, KahanLi8, Lie, OscillatorRotation,
+    Projected, RigidBodyFlow, RotorSplitting, Strang, Suzuki4, SuzukiUmeno8, SymmetrizedItohAbe, Yoshida4, Yoshida6,
+)
 from .scene import Scene, SceneError, SceneResult, run_scene
 from .solution import Solution
 from .solve import solve
@@ -10,6 +13,8 @@ from .system import MetriplecticSystem
 __version__ = "0.1.0"
 
 __all__ = [
-    "AVF", "RK4", "DampedGonzalez", "Gonzalez", "Integrator", "ItohAbe", "MetriplecticSystem", "Scene", "SceneError",
-    "SceneResult", "Solution", "SymmetrizedItohAbe", "__version__", "level_set", "run_scene", "solve", "systems",
+    "AVF", "RK4", "Composition", "DampedGonzalez", "Gonzalez", "Integrator", "ItohAbe", "KahanLi6", "KahanLi8", "Lie",
+    "MetriplecticSystem", "OscillatorRotation", "Projected", "RigidBodyFlow", "RotorSplitting", "Scene", "SceneError",
+    "SceneResult", "Solution", "Strang", "Suzuki4", "SuzukiUmeno8", "SymmetrizedItohAbe", "Yoshida4", "Yoshida6",
+    "__version__", "level_set", "reference", "run_scene", "solve", "systems",
 ]

@@ -69,7 +69,7 @@ def solve(system, x0, t_span, h, method="gonzalez", save_every=1, progress=None)
     out_t, out_x, out_H, out_S = np.empty(rows), np.empty((rows, 3)), np.empty(rows), np.empty(rows)
     counters = np.zeros(_driver.N_COUNTERS, dtype=np.int64)
     residual = np.zeros(1)
-    code, coeffs, iopts = integrator.lower()
+    code, coeffs, iopts = integrator.bind(system, x0)
     state = np.concatenate([x0, np.zeros(3), [np.nan]])  # state, its compensation, the energy anchor
     chunk = n_steps if progress is None else max(1, min(n_steps, 100_000))
     integrate = _driver.integrate[system.form]

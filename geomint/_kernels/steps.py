@@ -14,6 +14,7 @@ from step to step, so that round-off in the state does not random-walk.
 import numpy as np
 from numba import njit
 
+from . import composition
 from .discrete_gradient import discrete_field
 from .field import ZERO, field
 from .vec3 import add, axpy, is_finite, load, norm_inf, scale, solve, sub
@@ -21,6 +22,7 @@ from .vec3 import add, axpy, is_finite, load, norm_inf, scale, solve, sub
 # families
 RK4 = 0
 DISCRETE_GRADIENT = 1
+COMPOSED = 10  # splittings, compositions, projections: see composition.py
 
 # step status
 OK = 0
@@ -229,6 +231,10 @@ def step(code, H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts,
     """Advance ``x`` by ``h`` with the method ``(code, coeffs, iopts)``."""
     if code == RK4:
         return rk4_step(H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, comp, h)
+    if code == COMPOSED:
+        return composition.composed_step(
+            H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, comp, H_x, S_x, h, 0.0
+        )[:8]
     return discrete_gradient_step(
         iopts[DG_KIND], iopts[DG_MAX_ITER], iopts[DG_DAMPED], iopts[DG_COMPENSATED], coeffs,
         H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, comp, H_x, S_x, h,

@@ -40,6 +40,12 @@ class Integrator:
         """``(code, coeffs, iopts)`` for the compiled engine."""
         raise NotImplementedError
 
+    def bind(self, system, x0):
+        """``lower()`` for a run of ``system`` from ``x0``: methods that apply only to some
+        systems raise ``ValueError`` here, and methods that need a run constant
+        (a projection's target ``H(x0)``) add it.  Caller: ``geomint.solve``."""
+        return self.lower()
+
     @staticmethod
     def _data(code, coeffs=(), iopts=()):
         return code, np.asarray(coeffs, dtype=np.float64).reshape(-1), np.asarray(iopts, dtype=np.int64).reshape(-1)
@@ -58,7 +64,7 @@ def resolve(method):
 
 
 def _short_names():
-    from . import discrete_gradient, runge_kutta
+    from . import composition, discrete_gradient, exact_flows, projection, runge_kutta, splitting
 
     classes = (
         discrete_gradient.Gonzalez,
@@ -68,4 +74,6 @@ def _short_names():
         discrete_gradient.DampedGonzalez,
         runge_kutta.RK4,
     )
+    classes += (splitting.Lie, splitting.Strang, projection.Projected, *composition.WRAPPERS)
+    classes += (exact_flows.RigidBodyFlow, exact_flows.RotorSplitting, exact_flows.OscillatorRotation)
     return {cls.name: cls for cls in classes}

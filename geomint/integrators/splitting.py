@@ -1,0 +1,89 @@
+r"""Lie and Strang splittings of the Hamiltonian flow and the gradient flow.
+
+    x' = xi_P(x)  +  eps xi_g(x)
+         \_ A _/     \__ B __/
+
+``A`` keeps H and S, ``B`` keeps H and lowers S (DESIGN.md section 3).  Each
+flow gets its own sub-integrator: an exact flow (``RigidBodyFlow``,
+``OscillatorRotation``), the explicit ``RotorSplitting``, or any one-step
+method restricted to that flow (``Gonzalez()`` on ``system.with_effects(eps=0)``
+resp. ``with_effects(hamiltonian=False)``, done inside the kernel).
+"""
+
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+from .base import Integrator
+from .discrete_gradient import Gonzalez
+from .program import Program, Programmed, check_flow, leaf_data
+
+
+@dataclass(frozen=True)
+class _Splitting(Programmed, Integrator):
+    hamiltonian_part: Integrator = field(default_factory=Gonzalez)
+    gradient_part: Integrator = field(default_factory=Gonzalez)
+
+    def __post_init__(self):
+        for argument, method in (("hamiltonian_part", self.hamiltonian_part), ("gradient_part", self.gradient_part)):
+            if not isinstance(method, Integrator):
+                raise TypeError(f"`{argument}` must be a geomint Integrator; got {method!r}.")
+        check_flow("hamiltonian_part", self.hamiltonian_part, "hamiltonian")
+        check_flow("gradient_part", self.gradient_part, "gradient")
+        leaf_data(self.hamiltonian_part)  # one-step methods only: TypeError now, not in solve
+        leaf_data(self.gradient_part)
+
+    @property
+    def energy_exact(self):
+        return self.hamiltonian_part.energy_exact and self.gradient_part.energy_exact
+
+    @property
+    def dissipative(self):
+        return self.hamiltonian_part.dissipative and self.gradient_part.dissipative
+
+    @property
+    def implicit(self):
+        return self.hamiltonian_part.implicit or self.gradient_part.implicit
+
+    def sub_methods(self):
+        return (self.hamiltonian_part, self.gradient_part)
+
+
+@dataclass(frozen=True)
+class Lie(_Splitting):
+    """Lie-Trotter splitting ``Phi_h = B_h o A_h``: first order.
+
+    ``A_h`` advances the Hamiltonian flow ``xi_P`` with ``hamiltonian_part``,
+    ``B_h`` the gradient flow ``eps xi_g`` with ``gradient_part``.  Keeps H
+    when both parts do; never raises S when both parts do not.  Reference:
+    McLachlan and Quispel, Acta Numerica 11 (2002) 341, doi:10.1017/S0962492902000053.
+    """
+
+    name: ClassVar[str] = "lie"
+    order: ClassVar[int] = 1
+    symmetric: ClassVar[bool] = False
+
+    def program(self):
+        return Program(((self.hamiltonian_part, "hamiltonian", 1.0), (self.gradient_part, "gradient", 1.0)))
+
+
+@dataclass(frozen=True)
+class Strang(_Splitting):
+    """Strang splitting ``Phi_h = A_{h/2} o B_h o A_{h/2}``: second order, symmetric when both parts are.
+
+    The order is ``min(2, order of each part)``.  Reference: G. Strang, SIAM J.
+    Numer. Anal. 5 (1968) 506, doi:10.1137/0705041.
+    """
+
+    name: ClassVar[str] = "strang"
+
+    @property
+    def order(self):
+        return min(2, self.hamiltonian_part.order, self.gradient_part.order)
+
+    @property
+    def symmetric(self):
+        return self.hamiltonian_part.symmetric and self.gradient_part.symmetric
+
+    def program(self):
+        a, b = self.hamiltonian_part, self.gradient_part
+        return Program(((a, "hamiltonian", 0.5), (b, "gradient", 1.0), (a, "hamiltonian", 0.5)))

@@ -1,0 +1,98 @@
+"""Projection onto H = H0 that never raises S, and the monotone safeguard of compositions."""
+
+import numpy as np
+import pytest
+
+import geomint
+import geomint.testing as gt
+from geomint.integrators import S_rise_statistics
+
+EPS = np.finfo(float).eps
+X0 = np.array([np.cos(1.1), 0.0, np.sin(1.1)])  # REFERENCES.md R2
+
+
+def _rk4_projected_run(n_steps, eps):
+    body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=eps)
+    return geomint.solve(body, X0, (0.0, 0.05 * n_steps), 0.05, method=geomint.Projected(), save_every=1)
+
+
+@pytest.mark.parametrize("eps", [0.0, 1.0])
+def test_projected_rk4_keeps_H_to_4_ulp_and_never_raises_S(eps):
+    sol = _rk4_projected_run(20_000, eps)
+    assert sol.success
+    assert sol.energy_error <= 4 * EPS, sol.energy_error / EPS
+    assert sol.S_rises == 0
+    plain = geomint.solve(geomint.systems.relaxing_rigid_body(eps=eps), X0, (0.0, 1000.0), 0.05, method="rk4")
+    assert plain.energy_error > 1e3 * EPS  # the projection is doing the work
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("eps", [0.0, 1.0])
+def test_projected_rk4_million_steps(eps):
+    sol = _rk4_projected_run(1_000_000, eps)
+    print(f"eps={eps}: max |H-H0|/|H0| = {sol.energy_error / EPS:.2f} ulp, S rises: {sol.S_rises}")
+    assert sol.success and sol.n_steps == 1_000_000
+    assert sol.energy_error <= 4 * EPS
+    assert sol.S_rises == 0
+
+
+def test_the_S_constraint_of_the_projection_is_active_when_the_method_raises_S():
+    """The free rigid body: RK4 makes |m| oscillate; the projection keeps S from rising."""
+    body = geomint.systems.relaxing_rigid_body(eps=0.0)
+    raw = geomint.solve(body, X0, (0.0, 100.0), 0.05, method="rk4")
+    projected = geomint.solve(body, X0, (0.0, 100.0), 0.05, method=geomint.Projected())
+    assert raw.S_rises > 100
+    assert projected.success and projected.S_rises == 0 and projected.energy_error <= 4 * EPS
+
+
+@pytest.mark.parametrize("method, order", [
+    (geomint.Projected(), 4), (geomint.Projected(geomint.Gonzalez(), symmetric=True), 2),
+    (geomint.Projected(geomint.Yoshida4(), symmetric=True), 4),
+])
+def test_projection_keeps_the_order_of_the_method(method, order):
+    """Free rigid body (R1), reference: the exact flow."""
+    body = geomint.systems.relaxing_rigid_body(eps=0.0)
+    exact = geomint.reference.rigid_body_exact(0.5, 1.0, 1.5, X0, 2.0)
+    hs = 2.0 / np.array([16, 23, 32, 45, 64])
+    errors = [np.max(np.abs(geomint.solve(body, X0, (0.0, 2.0), h, method=method, save_every=None).x_final - exact))
+              for h in hs]
+    assert abs(gt.observed_order(hs, errors) - order) <= 0.15
+
+
+R2_BASE = geomint.Strang(geomint.RigidBodyFlow(), geomint.Gonzalez())
+
+
+@pytest.mark.parametrize("scheme", ["yoshida4", "yoshida6", "kahan_li8"])
+def test_negative_gammas_raise_S_in_sub_steps_and_monotone_stops_full_step_rises(scheme):
+    """R2 at eps = 1, h = 0.01, 5000 steps; rises counted strictly (0 ulp) and beyond 16 ulp."""
+    body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=1.0)
+    free = S_rise_statistics(body, geomint.Composition(R2_BASE, scheme), X0, 0.01, 5000, ulps=0)
+    safe = S_rise_statistics(body, geomint.Composition(R2_BASE, scheme, monotone=True), X0, 0.01, 5000, ulps=0)
+    print(scheme, "free:", free, "monotone:", safe)
+    assert free["sub_step_rises"] > 0  # the backward gradient sub-steps
+    assert free["full_step_rises"] > 0  # near the equilibrium, by round-off
+    assert S_rise_statistics(body, geomint.Composition(R2_BASE, scheme), X0, 0.01, 5000)["full_step_rises"] == 0
+    assert safe["safeguard_fired"] > 0 and safe["status"] == 0
+    # what remains is the fallback's own round-off (Gonzalez lowers S up to round-off)
+    assert S_rise_statistics(body, geomint.Composition(R2_BASE, scheme, monotone=True), X0, 0.01, 5000)[
+        "full_step_rises"] == 0
+
+
+def test_the_monotone_safeguard_costs_no_accuracy_where_it_does_not_fire():
+    body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=1.0)
+    for scheme in ("yoshida4", "yoshida6"):
+        free, safe = (geomint.solve(body, X0, (0.0, 5.0), 0.1, method=geomint.Composition(R2_BASE, scheme, monotone=m),
+                                    save_every=None) for m in (False, True))
+        assert np.array_equal(free.x_final, safe.x_final)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scheme", ["yoshida4", "yoshida6"])
+def test_monotone_million_steps_never_raise_S(scheme):
+    body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=1.0)
+    method = geomint.Composition(R2_BASE, scheme, monotone=True)
+    sol = geomint.solve(body, X0, (0.0, 0.01 * 1_000_000), 0.01, method=method, save_every=1)
+    stats = S_rise_statistics(body, method, X0, 0.01, 1_000_000, ulps=0)
+    print(scheme, stats, "energy error", sol.energy_error)
+    assert sol.success and sol.n_steps == 1_000_000
+    assert sol.S_rises == 0  # beyond 16 ulp, as Solution counts them
