@@ -96,8 +96,14 @@ def catalogue_examples():
 
 
 def structure_preserving_methods():
-    """Every registered integrator that declares ``energy_exact`` and ``dissipative``, with default options."""
-    return [cls() for name, cls in sorted(_short_names().items()) if cls.energy_exact and cls.dissipative]
+    """Every registered integrator of the whole field that declares ``energy_exact`` and ``dissipative``,
+    with default options (sub-flow integrators such as exact Hamiltonian flows are parts of splittings,
+    not integrators of the metriplectic field)."""
+    return [
+        cls()
+        for name, cls in sorted(_short_names().items())
+        if cls.energy_exact and cls.dissipative and not hasattr(cls, "flows")
+    ]
 
 
 # -- one step and its invariants ----------------------------------------------------------

@@ -93,7 +93,8 @@ def test_tiny_steps(method):
     assert sol.success, sol.message
     _exact_run(sol)
     expected = X0 + 1e-10 * quartic.xi(X0)
-    np.testing.assert_allclose(sol.x_final - X0, expected - X0, rtol=1e-6)
+    # a projection may move each of the 100 states by round-off: 4 ulp a step
+    np.testing.assert_allclose(sol.x_final - X0, expected - X0, rtol=1e-6, atol=100 * 4 * EPS)
 
 
 @each_method
@@ -111,8 +112,14 @@ def test_huge_steps_and_stiff_dissipation(method, h, eps):
 
 
 #: Midpoint-type methods reflect the fast dissipative mode: with h eps = 100
-#: they cannot get within 1e-8 of S_inf by t = 10 (docs/hard_cases.md).
-STALLS = {"gonzalez", "itoh_abe", "symmetrized_itoh_abe", "avf"}
+#: they cannot get within 1e-8 of S_inf by t = 10 (docs/hard_cases.md); so do
+#: the splittings built on them.
+STALLS = {"gonzalez", "itoh_abe", "symmetrized_itoh_abe", "avf", "lie", "strang"}
+#: Compositions above order 2 take backward sub-steps: on the stiff gradient flow
+#: (h eps = 100) their implicit-midpoint sub-step has no solution near x and the
+#: run stops at step 1 with status -1; projected RK4 is explicit and overflows
+#: (status -2).  Both are reported failures, never a wrong state.
+REFUSES_STIFF = {"yoshida4", "suzuki4", "yoshida6", "kahan_li6", "suzuki_umeno8", "kahan_li8", "projected"}
 
 
 @each_method
@@ -121,6 +128,11 @@ def test_stiff_relaxation(method):
     limitation) stays above it while decreasing monotonically and keeping H exactly."""
     body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=1e3)
     sol = geomint.solve(body, X0, (0.0, 10.0), 0.1, method=method)
+    if method.name in REFUSES_STIFF:
+        assert not sol.success and sol.status in (-1, -2), f"{method.name} now runs: update REFUSES_STIFF and docs"
+        assert f"Step {sol.failed_step} " in sol.message
+        _exact_run(sol)
+        return
     assert sol.success, sol.message
     _exact_run(sol)
     gap = sol.S[-1] - body.H(X0) / 1.5

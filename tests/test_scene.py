@@ -151,7 +151,7 @@ def test_scene_round_trips_through_its_dict_and_resolution():
 def test_resolved_writes_every_default():
     resolved = Scene(system="dissipative_oscillator", level_set={"H0": 0.5, "n": 3}, h=0.1, duration=1.0).resolved()
     assert resolved.parameters == {"coefficients": [0.0, 0.0, 1.0]}
-    assert resolved.integrator == {"name": "gonzalez", "max_newton_iter": 50}
+    assert resolved.integrator == {"name": "gonzalez", "max_newton_iter": 50, "compensated": True}
     assert resolved.level_set["center"] == [0.0, 0.0, 0.0]
 
 

@@ -211,8 +211,11 @@ def composed_step(H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iop
     if projection != NO_PROJECTION:
         max_iter = iopts[MAX_ITER]
         y, H_y, it = project_energy(H, grad_H, params, buf, y, H_x, max_iter)
-        evaluations += it + 1
+        evaluations += it + 2
         comp_y = ZERO
+        grad_h = as_vector(grad_H(load(buf, y), params))
+        if not _steps._kept(H_x, H_y, grad_h, norm_inf(y), 64.0, 0.0):  # no point of H = H0 along grad H
+            return y, comp_y, H_y, S_y, _steps.NEWTON_FAILED, iterations, evaluations, residual, rises, fired
         S_y = S(load(buf, y), params)
         grad_s = as_vector(grad_S(buf, params))
         if S_y - S_x > rise_tolerance(S_x, S_y, grad_s, y):
