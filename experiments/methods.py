@@ -63,8 +63,8 @@ def geomint_methods(module=geomint, skipped=None):
     Candidates whose names ``module`` lacks are left out; a candidate whose
     constructor rejects the call is left out and its error appended to
     ``skipped`` (a list) when given.  Exported ``Integrator`` subclasses not
-    listed above and buildable without arguments are appended under their
-    class name.
+    listed above, integrating the whole field and buildable without arguments
+    are appended under their class name.
     """
     methods = []
     for label, needs, build in _CANDIDATES:
@@ -78,11 +78,14 @@ def geomint_methods(module=geomint, skipped=None):
     known = {type(m.integrator) for m in methods}
     for name in getattr(module, "__all__", ()):
         cls = getattr(module, name)
-        if isinstance(cls, type) and issubclass(cls, module.Integrator) and cls is not module.Integrator and cls not in known:
-            try:
-                integrator = cls()
-                integrator.lower()
-            except (TypeError, ValueError, NotImplementedError):
-                continue
-            methods.append(Method(name, integrator))
+        if not (isinstance(cls, type) and issubclass(cls, module.Integrator)) or cls is module.Integrator:
+            continue
+        if cls in known or hasattr(cls, "flows"):  # flows: a sub-flow integrator, a part of splittings only
+            continue
+        try:
+            integrator = cls()
+            integrator.lower()
+        except (TypeError, ValueError, NotImplementedError):
+            continue
+        methods.append(Method(name, integrator))
     return methods
