@@ -7,7 +7,6 @@ bracket by doubling, then bisection to the last bit, vectorised over all rays.
 """
 
 import numpy as np
-from scipy import optimize, spatial
 
 _GOLDEN_ANGLE = np.pi * (3.0 - np.sqrt(5.0))
 
@@ -28,6 +27,8 @@ def fibonacci_directions(n):
 
 def energy_minimiser(system):
     """The minimiser of H found from the origin (BFGS with the exact gradient): the default centre."""
+    from scipy import optimize  # imported on use: it costs a new process ~0.3 s
+
     result = optimize.minimize(
         lambda x: float(system.H(x)), np.zeros(3), jac=lambda x: np.asarray(system.grad_H(x), dtype=float),
         method="BFGS", options={"gtol": 1e-12},
@@ -121,6 +122,8 @@ def equilibria(system, H0, center, n=4000):
     (centres, and the zero direction along a curve of equilibria), with
     ``tol = 1e-5 * |Df|``.  A curve of equilibria comes back as points along it.
     """
+    from scipy import optimize, spatial  # imported on use: they cost a new process ~0.3 s
+
     points = on_rays(system, H0, fibonacci_directions(n), center)
     speed = np.linalg.norm(system.xi(points), axis=1)
     scale = float(speed.max())
