@@ -144,14 +144,17 @@ def show(scene_name, out=None):
 def list_all(out=None):
     """``geomint list``: what scenes can name."""
     out = sys.stdout if out is None else out
-    from .integrators.base import _short_names
+    from .integrators import INTEGRATORS
 
     print("systems ([system] name):", file=out)
     for name, constructor in CATALOGUE.items():
         print(f"  {name:<24}{constructor.__doc__.strip().splitlines()[0]}", file=out)
     print("integrators ([integrator] method):", file=out)
-    for name, cls in sorted(_short_names().items()):
-        print(f"  {name:<24}order {cls.order}; {cls.__doc__.strip().splitlines()[0]}", file=out)
+    for name, cls in sorted(INTEGRATORS.items()):
+        method = cls()
+        traits = ", ".join(t for t in ("energy_exact", "dissipative", "symmetric", "implicit") if getattr(method, t))
+        print(f"  {name:<24}order {method.order}; {traits or 'no structure'}; {cls.__doc__.strip().splitlines()[0]}",
+              file=out)
     print("observables ([output] record):", file=out)
     for name, (what, _) in OBSERVABLES.items():
         print(f"  {name:<24}{what}", file=out)

@@ -588,9 +588,9 @@ class _Checker:
 
 
 def _integrators():
-    from .integrators.base import _short_names
+    from .integrators import INTEGRATORS
 
-    return sorted(_short_names())
+    return sorted(INTEGRATORS)
 
 
 def _listing(names):

@@ -19,9 +19,10 @@ from numba.core.dispatcher import Dispatcher
 from numba.core.types.function_type import CompileResultWAP
 
 from ._kernels import field as _field
-from ._kernels.signatures import vec as _vec
+from ._kernels.layout import Model
 
-_SIGNATURE = (_vec, _vec)
+_VECTOR = numba.types.float64[::1]
+_SIGNATURE = (_VECTOR, _VECTOR)
 _SCALAR_TYPES = (numba.types.float64,)
 _VECTOR_FORMS = {
     numba.types.UniTuple(numba.types.float64, 3): "tuple",
@@ -77,6 +78,14 @@ class MetriplecticSystem:
         Passed to every function; model parameters belong here, not in globals.
     name : str
         A label for reports.
+    exact_flows : dict, optional
+        Exact or explicit Hamiltonian sub-flows the system admits, by name, with
+        their data: ``{"rigid_body_flow": (a, b, c)}`` for ``H = (a x^2 + b y^2 + c z^2)/2``
+        with ``J = m`` (``geomint.RigidBodyFlow``); ``{"rotor_splitting": ()}`` for a
+        separable H with ``J = m`` (``geomint.RotorSplitting``);
+        ``{"oscillator_rotation": ()}`` for ``H = |x|^2/2`` with a constant J
+        (``geomint.OscillatorRotation``).  Checked at sample points like the
+        structure; a declaration that does not hold raises ``ValueError``.
     check : bool, default True
         Check at a few sample points that the gradients match finite differences
         of H and S, that S is a Casimir of J and that J satisfies Jacobi (and P is
@@ -104,7 +113,8 @@ class MetriplecticSystem:
     np.float64(-0.23)
     """
 
-    def __init__(self, *, H, grad_H, S, grad_S, J=None, P=None, eps=1.0, params=(), name="custom", check=True):
+    def __init__(self, *, H, grad_H, S, grad_S, J=None, P=None, eps=1.0, params=(), name="custom", exact_flows=None,
+                 check=True):
         if (J is None) == (P is None):
             raise ValueError("give exactly one of `J` (axial vector) and `P` (skew matrix) for the Poisson tensor.")
         self.eps = _check_eps(eps)
@@ -125,32 +135,31 @@ class MetriplecticSystem:
             poisson=J if J is not None else P,
             vector_form=forms["grad_H"], poisson_form="axial" if J is not None else "matrix",
         )
+        self.exact_flows = _check_exact_flows(exact_flows)
         if check:
             _check_structure(self)
+            for flow, data in self.exact_flows.items():
+                _EXACT_FLOW_CHECKS[flow](self, data)
 
     # -- the model as kernels receive it ------------------------------------------------
     @property
     def model(self):
-        """``(H, grad_H, S, grad_S, J or P, params)``: the leading arguments of every kernel.
+        """``layout.Model(H, grad_H, S, grad_S, J or P, params)``: the model as every kernel receives it.
 
         The functions are handed over as compiled first-class function objects
         (their machine addresses, looked up once), not as dispatchers, which
-        numba would resolve anew at every kernel call.
+        numba would resolve anew at every kernel call.  Their types (tuple or
+        array results, J or P) select the compiled kernel variant.
         """
-        if "_compiled" not in self.__dict__:
+        if "_model" not in self.__dict__:
             f = self.functions
-            self._compiled = tuple(_first_class(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S, f.poisson))
-        return (*self._compiled, self._params)
+            self._model = Model(*(_first_class(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S, f.poisson)), self._params)
+        return self._model
 
     @property
     def params(self):
         """A copy of the parameter vector."""
         return self._params.copy()
-
-    @property
-    def form(self):
-        """``(vector_form, poisson_form)``: selects the compiled kernel variant."""
-        return (self.functions.vector_form, self.functions.poisson_form)
 
     def with_effects(self, *, hamiltonian=None, eps=None):
         """The same system with the Hamiltonian part switched on/off and/or another eps.
@@ -175,14 +184,23 @@ class MetriplecticSystem:
 
     # -- vectorised evaluation ---------------------------------------------------------
     def _evaluate(self, x):
-        X = np.ascontiguousarray(np.atleast_2d(np.asarray(x, dtype=np.float64)))
+        """``(H, S, grad H, grad S, J)`` at one state (scalars and (3,) arrays) or at many (arrays)."""
+        X = np.asarray(x, dtype=np.float64)
+        if X.shape == (3,):
+            return self._evaluate_one(np.ascontiguousarray(X))
+        X = np.ascontiguousarray(np.atleast_2d(X))
         if X.ndim != 2 or X.shape[1] != 3:
             raise ValueError(f"`x` must have shape (3,) or (n, 3); got shape {np.shape(x)}.")
         n = X.shape[0]
         out = (np.empty(n), np.empty(n), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)))
-        _field.evaluate[self.form](*self.model, X, *out)
-        single = np.ndim(x) == 1
-        return tuple(o[0] for o in out) if single else out
+        _field.evaluate(self.model, X, *out)
+        return out
+
+    def _evaluate_one(self, x):
+        """One state: the user's functions called directly (a few microseconds, no kernel dispatch)."""
+        f, p = self.functions, self._params
+        return (float(f.H(x, p)), float(f.S(x, p)), _vector(f.grad_H(x, p)), _vector(f.grad_S(x, p)),
+                _vector(f.poisson(x, p)))
 
     def H(self, x):
         """Energy at ``x``."""
@@ -205,17 +223,17 @@ class MetriplecticSystem:
     def xi_P(self, x):
         """Hamiltonian field ``grad H x J``."""
         _, _, gh, _, j = self._evaluate(x)
-        return np.cross(gh, j)
+        return _cross(gh, j)
 
     def xi_g(self, x):
         """Gradient field ``g grad S = grad H x (grad H x grad S)`` (without eps)."""
         _, _, gh, gs, _ = self._evaluate(x)
-        return np.cross(gh, np.cross(gh, gs))
+        return _cross(gh, _cross(gh, gs))
 
     def xi(self, x):
         """The field ``xi_P + eps xi_g`` (without ``xi_P`` when the Hamiltonian part is off)."""
         _, _, gh, gs, j = self._evaluate(x)
-        return (np.cross(gh, j) if self.hamiltonian else 0.0) + self.eps * np.cross(gh, np.cross(gh, gs))
+        return (_cross(gh, j) if self.hamiltonian else 0.0) + self.eps * _cross(gh, _cross(gh, gs))
 
     def g(self, x):
         """The metric ``grad H (x) grad H - I |grad H|^2``, shape (3, 3) or (n, 3, 3)."""
@@ -226,12 +244,26 @@ class MetriplecticSystem:
     def sigma(self, x):
         """``sigma = grad S x grad H``; ``dS/dt = -eps |sigma|^2``."""
         _, _, gh, gs, _ = self._evaluate(x)
-        return np.cross(gs, gh)
+        return _cross(gs, gh)
 
     def dS_dt(self, x):
         """Rate of change of S along the flow, ``-eps |sigma|^2``."""
         s = self.sigma(x)
         return -self.eps * np.sum(s * s, axis=-1)
+
+
+def _vector(v):
+    """A user function's vector (3-tuple or array; a 3x3 ``P`` gives its axial vector) as a (3,) array."""
+    a = np.asarray(v, dtype=np.float64)
+    if a.shape == (3, 3):
+        return np.array([a[1, 2], -a[0, 2], a[0, 1]])
+    return a if a.shape == (3,) else a.reshape(3)
+
+
+def _cross(u, v):
+    """``u x v`` over the last axis; plain arithmetic (``np.cross`` costs ~10 us on one pair)."""
+    return np.stack([u[..., 1] * v[..., 2] - u[..., 2] * v[..., 1], u[..., 2] * v[..., 0] - u[..., 0] * v[..., 2],
+                     u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]], axis=-1)
 
 
 # -- validation of the user's functions (the boundary) --------------------------------
@@ -359,3 +391,54 @@ def _require(name, points, got, want, rule, scale=None):
             f"`{name}` must {rule}; at x = {points[i].tolist()} it gives {np.atleast_1d(got[i]).tolist()} "
             f"(expected {np.atleast_1d(want[i]).tolist()}). Pass check=False to skip this check."
         )
+
+
+# -- declared exact sub-flows ------------------------------------------------------------
+_EXACT_FLOW_DATA = {"rigid_body_flow": 3, "rotor_splitting": 0, "oscillator_rotation": 0}
+
+
+def _check_exact_flows(exact_flows):
+    if exact_flows is None:
+        return {}
+    if not isinstance(exact_flows, dict):
+        raise TypeError(f"`exact_flows` must be a dict {{name: data}}; got {type(exact_flows).__name__}.")
+    checked = {}
+    for name, data in exact_flows.items():
+        if name not in _EXACT_FLOW_DATA:
+            raise ValueError(f"`exact_flows` names must be among {sorted(_EXACT_FLOW_DATA)}; got {name!r}.")
+        values = _check_params(data)
+        if values.size != _EXACT_FLOW_DATA[name]:
+            raise ValueError(f"`exact_flows[{name!r}]` must hold {_EXACT_FLOW_DATA[name]} numbers; got {data!r}.")
+        checked[name] = tuple(float(v) for v in values)
+    return checked
+
+
+def _check_rigid_body(system, moments):
+    if not all(m > 0.0 for m in moments):
+        raise ValueError(f"`exact_flows['rigid_body_flow']` must be positive moments (a, b, c); got {moments!r}.")
+    _, _, grad_H, _, J = system._evaluate(_SAMPLES)
+    _require("exact_flows", _SAMPLES, grad_H, _SAMPLES * np.array(moments),
+             f"hold for rigid_body_flow: grad H = (a x, b y, c z) with (a, b, c) = {moments}")
+    _require("exact_flows", _SAMPLES, J, _SAMPLES, "hold for rigid_body_flow: J = m")
+
+
+def _check_rotors(system, data):
+    _, _, _, _, J = system._evaluate(_SAMPLES)
+    _require("exact_flows", _SAMPLES, J, _SAMPLES, "hold for rotor_splitting: J = m")
+    step = 1e-6
+    for j, e in enumerate(np.eye(3)):
+        column = (system.grad_H(_SAMPLES + step * e) - system.grad_H(_SAMPLES - step * e)) / (2 * step)
+        mixed = np.delete(column, j, axis=1)
+        _require("exact_flows", _SAMPLES, mixed, np.zeros_like(mixed),
+                 "hold for rotor_splitting: H separable, d grad_H_i / d x_j = 0 for i != j",
+                 scale=np.abs(column).max(axis=1) + 1.0)
+
+
+def _check_rotation(system, data):
+    _, _, grad_H, _, J = system._evaluate(_SAMPLES)
+    _require("exact_flows", _SAMPLES, grad_H, _SAMPLES, "hold for oscillator_rotation: grad H = x")
+    _require("exact_flows", _SAMPLES, J, np.broadcast_to(J[0], J.shape), "hold for oscillator_rotation: J constant")
+
+
+_EXACT_FLOW_CHECKS = {"rigid_body_flow": _check_rigid_body, "rotor_splitting": _check_rotors,
+                      "oscillator_rotation": _check_rotation}

@@ -18,7 +18,7 @@ from hypothesis import assume, reject
 from hypothesis import strategies as st
 
 from . import systems as _catalogue
-from .integrators.base import _short_names, resolve
+from .integrators import INTEGRATORS, resolve
 from .solve import solve
 
 EPS = np.finfo(np.float64).eps
@@ -96,14 +96,15 @@ def catalogue_examples():
 
 
 def structure_preserving_methods():
-    """Every registered integrator of the whole field that declares ``energy_exact`` and ``dissipative``,
-    with default options (sub-flow integrators such as exact Hamiltonian flows are parts of splittings,
-    not integrators of the metriplectic field)."""
-    return [
-        cls()
-        for name, cls in sorted(_short_names().items())
-        if cls.energy_exact and cls.dissipative and not hasattr(cls, "flows")
-    ]
+    """Every integrator of the whole field (``geomint.integrators.INTEGRATORS``) that declares
+    ``energy_exact`` and ``dissipative`` with default options, plus the compositions with
+    ``monotone=True`` (sub-flow integrators such as exact Hamiltonian flows are parts of
+    splittings, not integrators of the metriplectic field)."""
+    from .integrators import Composition
+
+    methods = [cls() for _, cls in sorted(INTEGRATORS.items())]
+    methods += [cls(monotone=True) for cls in INTEGRATORS.values() if issubclass(cls, Composition)]
+    return [m for m in methods if m.whole_field and m.energy_exact and m.dissipative]
 
 
 # -- one step and its invariants ----------------------------------------------------------

@@ -4,7 +4,7 @@ Every kernel trusts its caller (`geomint.solve` or `MetriplecticSystem`) to have
 checked shapes, finiteness and function types.  The model reaches a kernel as
 the leading arguments ``(H, grad_H, S, grad_S, J, params)``: typed first-class
 functions, so that one cached compilation serves every system
-(DESIGN.md section 5).
+(docs/design.md section 5).
 """
 
 import hashlib

@@ -1,85 +1,68 @@
 """The one engine for splittings, compositions, projection and the monotone safeguard.
 
-A method of family ``steps.COMPOSED`` is a flat program (numba has no
-recursion, so nesting is unrolled into three fixed levels):
+A method of type ``layout.ComposedStep`` is a flat program (numba has no
+recursion, so nesting is unrolled into fixed levels):
 
-    full step   = projection( safeguard( composition ) )
+    full step   = anchor or projection( safeguard( composition ) )
     composition = base(gamma_1 h) ... base(gamma_G h)
     base        = stage_1(f_1 h) ... stage_N(f_N h)      (a splitting, or one stage)
-    stage       = one leaf method on one flow: FULL (xi_P + eps xi_g),
+    stage       = one leaf method with its own data on one flow: FULL (xi_P + eps xi_g),
                   HAMILTONIAN (xi_P) or GRADIENT (eps xi_g)
 
-Layout (built by ``geomint.integrators.program.Program.lower``)::
+Layout (built by ``geomint.integrators.program.Program.lower``): ``iopts`` is a
+header (``layout.P_*``) and one row per stage (``layout.R_*``: leaf, flow,
+discrete-gradient kind and options, where the leaf's coefficients start and how
+many), the safeguard's fallback leaf last; ``coeffs`` holds gamma_1..gamma_G,
+f_1..f_N, then every leaf's coefficients (AVF's nodes, a rigid body's moments).
+Each sub-step position ``(g, s)`` has its own slot of the workspace
+(``layout.WORK`` floats), so every implicit sub-step keeps its own Newton
+Jacobian and extrapolates from its own history.
 
-    iopts[0:HEADER]   N_GAMMA, N_STAGES, MONOTONE, PROJECTION, MAX_ITER
-    iopts[HEADER + ROW * s : ...]  stage s: (leaf code, flow, offset of its iopts);
-                      row N_STAGES is the safeguard's fallback leaf (a discrete gradient)
-    coeffs[0 : G]     gamma_1 .. gamma_G;  then f_1 .. f_N
+Energy.  The discrete-gradient sub-steps are anchored to the evaluated H of
+their own sub-state: a sub-step anchored to H(x0) would have to remove the few
+ulps an exact-flow stage leaves, which a tiny gradient step near an
+equilibrium cannot do (its field is orthogonal to dgH).  What a sub-step leaves
+is below 2 ulp of the terms of H, but it has a consistent sign along a
+trajectory (the midpoint defect the switching rule skips), so over many steps
+it would drift linearly.  ``P_ANCHOR`` (set for energy-exact programs without a
+projection) pulls the full step back onto ``H = H(x0)``: when H has strayed by
+more than 2 ulp of its terms, a projection along grad H (a move of a few ulps)
+restores it, and is kept only if it does not raise S beyond round-off.
+Compensated summation (``steps.advance``) runs through every sub-step; a
+projection restarts it (the projected state is the state).
 
-Energy anchor: the driver passes ``H_x = H(x0)``; it is the projection's
-target.  The discrete-gradient sub-steps are not anchored to it but to the
-evaluated H of their own sub-state: an anchored sub-step must also remove the
-H error of the stage before it (O(h^3) for an explicit stage, which cuts a
-composition to order 2; a few ulps for an exact flow, which a tiny gradient
-step near an equilibrium cannot remove: Newton stalls).  So H random-walks at
-round-off level over long runs (``Projected`` pins it).  Compensated summation
-(``steps.advance``) runs through every sub-step; a projection restarts it
-(the projected state is the state).
-
-Leaf codes are the families of ``steps`` (RK4, DISCRETE_GRADIENT) and the
-exact flows below.  Caller: ``steps.step`` (and ``rise_statistics``).  The two
-modules import each other: ``steps.step`` branches here for ``COMPOSED``, and
-the leaves here call ``steps``' kernels; numba resolves ``_steps.*`` when it
-compiles, after both modules are loaded.
+Caller: ``driver.step`` (and ``rise_statistics``).
 """
 
 import numpy as np
-from numba import njit, types
+from numba import njit
 
-from . import steps as _steps
+from .discrete_gradient import term_scale
 from .exact_flows import rigid_body_flow, rotation, rotor_splitting
+from .layout import (
+    GRADIENT, HAMILTONIAN, HEADER, LEAF_DISCRETE_GRADIENT, LEAF_RIGID_BODY_FLOW, LEAF_RK4, LEAF_ROTOR_SPLITTING,
+    NEWTON_FAILED, NO_PROJECTION, NON_FINITE, OK, P_ANCHOR, P_GAMMAS, P_MAX_ITER, P_MONOTONE, P_PROJECTION, P_STAGES,
+    PROJECTION_FAILED, R_COEFF_AT, R_COEFF_COUNT, R_COMPENSATED, R_DAMPED, R_FLOW, R_KIND, R_LEAF, R_MAX_ITER, ROW,
+    SYMMETRIC, UNKNOWN, WORK, StepResult,
+)
 from .projection import project_both, project_energy, rise_tolerance
-from .signatures import f64, i64, ivec, model_kernel, vec
-from .vec3 import add, as_vector, axpy, dot, load, norm_inf, sub
+from .steps import EPS, GUARD, _kept, advance, discrete_gradient_step, rk4_step
+from .vec3 import ZERO, add, as_vector, axpy, dot, is_finite, load, norm_inf, sub
 
-# iopts header
-N_GAMMA = 0
-N_STAGES = 1
-MONOTONE = 2
-PROJECTION = 3
-MAX_ITER = 4
-HEADER = 5
-ROW = 3
-
-# flows
-FULL = 0
-HAMILTONIAN = 1
-GRADIENT = 2
-
-# leaf codes beyond the families of steps
-RIGID_BODY_FLOW = 11
-ROTOR_SPLITTING = 12
-ROTATION = 13
-
-# projection
-NO_PROJECTION = 0
-STANDARD = 1
-SYMMETRIC = 2
-
-ZERO = (0.0, 0.0, 0.0)
+#: a composed step off H(x0) by more than this many ulps of the terms of H is pulled back
+ANCHOR_ULPS = 2.0
 
 
 @njit(inline="always")
-def _invariants(H, S, params, buf, x):
+def _invariants(model, buf, x):
     load(buf, x)
-    return H(buf, params), S(buf, params)
+    return model.H(buf, model.params), model.S(buf, model.params)
 
 
-@njit
-def leaf_step(
-    leaf, flow, io, H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, comp, H_x, S_x, h
-):
-    """One step of the leaf method ``leaf`` on the sub-flow ``flow`` (``steps.step``'s return)."""
+@njit(error_model="numpy")
+def leaf_step(coeffs, iopts, row, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, work):
+    """One step of the leaf in program row ``row`` on its flow (a ``StepResult``)."""
+    leaf, flow = iopts[row + R_LEAF], iopts[row + R_FLOW]
     if flow == HAMILTONIAN:
         eps, active = 0.0, hamiltonian
     elif flow == GRADIENT:
@@ -87,56 +70,56 @@ def leaf_step(
     else:
         active = True
     if not active or h == 0.0:
-        return x, comp, H_x, S_x, _steps.OK, 0, 0, 0.0
-    if leaf == _steps.RK4:
-        return _steps.rk4_step(H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, comp, h)
-    if leaf == _steps.DISCRETE_GRADIENT:
-        return _steps.discrete_gradient_step(
-            iopts[io + _steps.DG_KIND], iopts[io + _steps.DG_MAX_ITER], iopts[io + _steps.DG_DAMPED],
-            iopts[io + _steps.DG_COMPENSATED], coeffs[:0],  # leaves carry no coefficients (program.leaf_data)
-            H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, comp, H_x, S_x, h,
+        return StepResult(x, comp, H_x, S_x, OK, 0, 0, 0.0, UNKNOWN)
+    at = iopts[row + R_COEFF_AT]
+    data = coeffs[at: at + iopts[row + R_COEFF_COUNT]]
+    if leaf == LEAF_RK4:
+        return rk4_step(model, eps, hamiltonian, buf, x, comp, h)
+    if leaf == LEAF_DISCRETE_GRADIENT:
+        return discrete_gradient_step(
+            iopts[row + R_KIND], iopts[row + R_MAX_ITER], iopts[row + R_DAMPED] != 0, iopts[row + R_COMPENSATED] != 0,
+            data, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, work,
         )
-    if leaf == RIGID_BODY_FLOW:
-        x_flow, evaluations = rigid_body_flow(params[0], params[1], params[2], x, h), 0
-    elif leaf == ROTOR_SPLITTING:
-        x_flow, evaluations = rotor_splitting(grad_H, params, buf, x, h), 5
+    if leaf == LEAF_RIGID_BODY_FLOW:
+        x_flow, evaluations = rigid_body_flow(data[0], data[1], data[2], x, h), 0
+    elif leaf == LEAF_ROTOR_SPLITTING:
+        x_flow, evaluations = rotor_splitting(model.grad_H, model.params, buf, x, h), 5
     else:
-        x_flow, evaluations = rotation(J, params, buf, x, h), 1
-    x_new, comp_new, H_new, S_new = _steps.advance(H, S, params, buf, x, comp, sub(x_flow, x))
-    return x_new, comp_new, H_new, S_new, _steps.OK, 0, evaluations, 0.0
+        x_flow, evaluations = rotation(model.J, model.params, buf, x, h), 1
+    x_new, comp_new = advance(x, comp, sub(x_flow, x))
+    status = OK if is_finite(x_new) else NON_FINITE
+    return StepResult(x_new, comp_new, np.nan, np.nan, status, 0, evaluations, 0.0, UNKNOWN)
 
 
-@njit(inline="always")
-def _row(iopts, s):
-    at = HEADER + ROW * s
-    return iopts[at], iopts[at + 1], iopts[at + 2]
+@njit(error_model="numpy")
+def _composition(coeffs, iopts, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, rise_ulps, work):
+    """``base(gamma_G h) o ... o base(gamma_1 h)`` from ``x`` with ``H_x = H(x)``.
 
-
-@njit
-def _composition(H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, comp, H_x, S_x, h, rise_ulps):
-    """``base(gamma_G h) o ... o base(gamma_1 h)`` from ``x`` with ``H_x = H(x)``; also counts the
-    sub-steps that raised S."""
-    n_gamma, n_stages = iopts[N_GAMMA], iopts[N_STAGES]
+    Returns ``(StepResult, sub-steps that raised S)``.
+    """
+    n_gamma, n_stages = iopts[P_GAMMAS], iopts[P_STAGES]
     iterations, evaluations, residual, rises = 0, 0, 0.0, 0
     for g in range(n_gamma):
         for s in range(n_stages):
-            leaf, flow, io = _row(iopts, s)
-            hs = coeffs[g] * coeffs[n_gamma + s] * h
-            x_new, comp_new, H_new, S_new, status, it, ev, residual = leaf_step(
-                leaf, flow, io, H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, comp, H_x, S_x, hs
-            )
-            iterations += it
-            evaluations += ev
-            if status != _steps.OK:
-                return x_new, comp_new, H_new, S_new, status, iterations, evaluations, residual, rises
-            if S_new - S_x > rise_ulps * _steps.EPS * max(abs(S_x), abs(S_new)):
+            slot = (g * n_stages + s) * WORK
+            r = leaf_step(coeffs, iopts, HEADER + ROW * s, model, eps, hamiltonian, buf, x, comp, H_x, S_x,
+                          coeffs[g] * coeffs[n_gamma + s] * h, work[slot: slot + WORK])
+            iterations += r.iterations
+            evaluations += r.evaluations
+            residual = r.residual
+            if r.status != OK:
+                return StepResult(r.x, r.comp, r.H, r.S, r.status, iterations, evaluations, residual, r.culprit), rises
+            H_new, S_new = r.H, r.S
+            if np.isnan(S_new):
+                H_new, S_new = _invariants(model, buf, r.x)
+            if S_new - S_x > rise_ulps * EPS * max(abs(S_x), abs(S_new)):
                 rises += 1
-            x, comp, H_x, S_x = x_new, comp_new, H_new, S_new
-    return x, comp, H_x, S_x, _steps.OK, iterations, evaluations, residual, rises
+            x, comp, H_x, S_x = r.x, r.comp, H_new, S_new
+    return StepResult(x, comp, H_x, S_x, OK, iterations, evaluations, residual, UNKNOWN), rises
 
 
-@njit
-def _symmetric_projection(H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, target, h):
+@njit(error_model="numpy")
+def _symmetric_projection(coeffs, iopts, model, eps, hamiltonian, buf, x, target, h, work):
     """Hairer's symmetric projection (BIT 40 (2000) 726, doi:10.1023/A:1022344502818):
 
         x^ = x + mu grad H(x),   y~ = Phi_h(x^),   y = y~ + mu grad H(y),   H(y) = H0,
@@ -147,108 +130,129 @@ def _symmetric_projection(H, grad_H, S, grad_S, J, params, eps, hamiltonian, coe
     when the update is within 4 ulp, or has stopped shrinking below sqrt(eps)
     (the noise of an implicit ``Phi_h`` solved to round-off).
     """
-    gx = as_vector(grad_H(load(buf, x), params))
+    p = model.params
+    gx = as_vector(model.grad_H(load(buf, x), p))
     mu = 0.0
     y = x
     gy = gx
     iterations, evaluations = 0, 0
     previous = np.inf
     moved = np.inf
-    for _ in range(iopts[MAX_ITER]):
+    for _ in range(iopts[P_MAX_ITER]):
         x_hat = axpy(mu, gx, x)
-        H_hat, S_hat = _invariants(H, S, params, buf, x_hat)
-        y_tilde, _, _, _, status, it, ev, res, _ = _composition(
-            H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x_hat, ZERO, H_hat, S_hat, h, 0.0
-        )
-        iterations += it + 1
-        evaluations += ev + 1
-        if status != _steps.OK:
-            return y_tilde, status, iterations, evaluations, res
-        y_new = axpy(mu, gy, y_tilde)
-        gy = as_vector(grad_H(load(buf, y_new), params))
+        H_hat, S_hat = _invariants(model, buf, x_hat)
+        r, _ = _composition(coeffs, iopts, model, eps, hamiltonian, buf, x_hat, ZERO, H_hat, S_hat, h, 0.0, work)
+        iterations += r.iterations + 1
+        evaluations += r.evaluations + 1
+        if r.status != OK:
+            return StepResult(r.x, ZERO, r.H, r.S, r.status, iterations, evaluations, r.residual, r.culprit)
+        y_new = axpy(mu, gy, r.x)
+        gy = as_vector(model.grad_H(load(buf, y_new), p))
         slope = dot(gy, add(gx, gy))
-        d_mu = (H(buf, params) - target) / slope if slope != 0.0 else 0.0
+        d_mu = (model.H(buf, p) - target) / slope if slope != 0.0 else 0.0
         mu -= d_mu
         moved = norm_inf(sub(y_new, y)) + abs(d_mu) * norm_inf(gx)
         y = y_new
         size = norm_inf(y)
-        if moved <= 4.0 * _steps.EPS * size or (moved >= 0.5 * previous and moved <= _steps.SQRT_EPS * size):
-            return y, _steps.OK, iterations, evaluations, moved
+        if moved <= 4.0 * EPS * size or (moved >= 0.5 * previous and moved <= np.sqrt(EPS) * size):
+            H_y, S_y = _invariants(model, buf, y)
+            return StepResult(y, ZERO, H_y, S_y, OK, iterations, evaluations, moved, UNKNOWN)
         previous = moved
-    return y, _steps.NEWTON_FAILED, iterations, evaluations, moved
+    return StepResult(y, ZERO, np.nan, np.nan, NEWTON_FAILED, iterations, evaluations, moved, UNKNOWN)
 
 
-@njit
-def composed_step(H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, comp, H_x, S_x, h, rise_ulps):
-    """One full step from ``x`` (``H_x``: the anchor H(x0)); returns ``steps.step``'s tuple plus
-    (sub-steps raising S, safeguard fired)."""
-    projection = iopts[PROJECTION]
-    H_start = H(load(buf, x), params)
+@njit(error_model="numpy")
+def _pull_back(model, buf, y, H_y, S_y, anchor, max_iter):
+    """``y`` moved along grad H back onto ``H = anchor`` when it strayed beyond ``ANCHOR_ULPS`` of the
+    terms of H (see the module docstring); kept only if S does not rise beyond round-off.
+    Returns ``(y, H(y), S(y), evaluations)``."""
+    grad_h = as_vector(model.grad_H(load(buf, y), model.params))
+    if abs(H_y - anchor) <= ANCHOR_ULPS * EPS * term_scale(anchor, H_y, grad_h, norm_inf(y)):
+        return y, H_y, S_y, 1
+    z, H_z, it = project_energy(model, buf, y, anchor, max_iter)
+    S_z = model.S(load(buf, z), model.params)
+    grad_s = as_vector(model.grad_S(buf, model.params))
+    if abs(H_z - anchor) < abs(H_y - anchor) and S_z - S_y <= rise_tolerance(S_y, S_z, grad_s, z):
+        return z, H_z, S_z, it + 4
+    return y, H_y, S_y, it + 4
+
+
+@njit(error_model="numpy")
+def composed_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work, rise_ulps):
+    """One full step from ``x`` (``H_anchor``: H(x0)); returns ``(StepResult, sub-steps raising S,
+    safeguard fired)``."""
+    coeffs, iopts = method.coeffs, method.iopts
+    projection = iopts[P_PROJECTION]
+    H_start = model.H(load(buf, x), model.params)
+    rises = 0
     if projection == SYMMETRIC:
-        y, status, iterations, evaluations, residual = _symmetric_projection(
-            H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, H_x, h
-        )
-        comp_y = ZERO
-        H_y, S_y = _invariants(H, S, params, buf, y)
-        rises = 0
+        r = _symmetric_projection(coeffs, iopts, model, eps, hamiltonian, buf, x, H_anchor, h, work)
     else:
-        y, comp_y, H_y, S_y, status, iterations, evaluations, residual, rises = _composition(
-            H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, comp, H_start, S_x, h, rise_ulps
-        )
-    if status != _steps.OK:
-        return y, comp_y, H_y, S_y, status, iterations, evaluations, residual, rises, 0
+        r, rises = _composition(coeffs, iopts, model, eps, hamiltonian, buf, x, comp, H_start, S_x, h, rise_ulps, work)
+    if r.status != OK:
+        return r, rises, 0
+    y, comp_y, H_y, S_y = r.x, r.comp, r.H, r.S
+    iterations, evaluations, residual = r.iterations, r.evaluations + 1, r.residual
     fired = 0
-    if iopts[MONOTONE] and S_y > S_x:
-        leaf, flow, io = _row(iopts, iopts[N_STAGES])
-        y, comp_y, H_y, S_y, status, it, ev, residual = leaf_step(
-            leaf, flow, io, H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, comp, H_start, S_x, h
-        )
-        iterations += it
-        evaluations += ev
+    if iopts[P_MONOTONE] and S_y > S_x:
+        row = HEADER + ROW * iopts[P_STAGES]
+        slot = iopts[P_GAMMAS] * iopts[P_STAGES] * WORK
+        r = leaf_step(coeffs, iopts, row, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work[slot: slot + WORK])
+        iterations += r.iterations
+        evaluations += r.evaluations
         fired = 1
-        if status != _steps.OK:
-            return y, comp_y, H_y, S_y, status, iterations, evaluations, residual, rises, fired
+        if r.status != OK:
+            return r, rises, fired
+        y, comp_y, H_y, S_y = r.x, r.comp, r.H, r.S
+    max_iter = iopts[P_MAX_ITER]
     if projection != NO_PROJECTION:
-        max_iter = iopts[MAX_ITER]
-        y, H_y, it = project_energy(H, grad_H, params, buf, y, H_x, max_iter)
+        y, H_y, it = project_energy(model, buf, y, H_anchor, max_iter)
         evaluations += it + 2
         comp_y = ZERO
-        grad_h = as_vector(grad_H(load(buf, y), params))
-        if not _steps._kept(H_x, H_y, grad_h, norm_inf(y), 64.0, 0.0):  # no point of H = H0 along grad H
-            return y, comp_y, H_y, S_y, _steps.NEWTON_FAILED, iterations, evaluations, residual, rises, fired
-        S_y = S(load(buf, y), params)
-        grad_s = as_vector(grad_S(buf, params))
+        grad_h = as_vector(model.grad_H(load(buf, y), model.params))
+        if not _kept(H_anchor, H_y, term_scale(H_anchor, H_y, grad_h, norm_inf(y)), 64.0, 0.0):
+            return StepResult(y, comp_y, H_y, S_y, PROJECTION_FAILED, iterations, evaluations, residual, UNKNOWN), rises, fired
+        S_y = model.S(load(buf, y), model.params)
+        grad_s = as_vector(model.grad_S(buf, model.params))
         if S_y - S_x > rise_tolerance(S_x, S_y, grad_s, y):
-            y, H_y, S_y, converged, it = project_both(H, grad_H, S, grad_S, params, buf, y, H_x, S_x, max_iter)
+            y, H_y, S_y, converged, it = project_both(model, buf, y, H_anchor, S_x, max_iter)
             evaluations += it + 1
             if not converged:
-                return y, comp_y, H_y, S_y, _steps.NEWTON_FAILED, iterations, evaluations, residual, rises, fired
-    return y, comp_y, H_y, S_y, _steps.OK, iterations, evaluations, residual, rises, fired
+                return StepResult(y, comp_y, H_y, S_y, PROJECTION_FAILED, iterations, evaluations, residual, UNKNOWN), rises, fired
+    elif iopts[P_ANCHOR]:
+        z, H_y, S_y, ev = _pull_back(model, buf, y, H_y, S_y, H_anchor, max_iter)
+        evaluations += ev
+        if z[0] != y[0] or z[1] != y[1] or z[2] != y[2]:
+            y, comp_y = z, ZERO
+    status = OK if is_finite(y) and np.isfinite(H_y) and np.isfinite(S_y) else NON_FINITE
+    return StepResult(y, comp_y, H_y, S_y, status, iterations, evaluations, residual, UNKNOWN), rises, fired
 
 
-@model_kernel(types.void, f64, types.boolean, vec, ivec, vec, f64, i64, f64, ivec)
-def rise_statistics(H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, state, h, n_steps, rise_ulps, out):
+@njit(cache=True, error_model="numpy")
+def rise_statistics(model, eps, hamiltonian, method, state, h, n_steps, rise_ulps, out):
     """Run ``n_steps`` full steps from ``state`` (updated) and count S rises beyond ``rise_ulps`` ulp.
 
     ``out``: steps taken, sub-steps, sub-steps raising S, full steps raising S,
     safeguard firings, status.  Caller: ``geomint.integrators.S_rise_statistics``.
     """
     buf = np.empty(3)
+    work = np.zeros(method.slots * WORK)
     x = (state[0], state[1], state[2])
     comp = ZERO
-    anchor, S_x = _invariants(H, S, params, buf, x)
-    per_step = iopts[N_GAMMA] * iopts[N_STAGES]
+    anchor, S_x = _invariants(model, buf, x)
+    per_step = method.iopts[P_GAMMAS] * method.iopts[P_STAGES]
     for _ in range(n_steps):
-        x_new, comp_new, _, S_new, status, _, _, _, rises, fired = composed_step(
-            H, grad_H, S, grad_S, J, params, eps, hamiltonian, coeffs, iopts, buf, x, comp, anchor, S_x, h, rise_ulps
-        )
-        if status != _steps.OK:
-            out[5] = status
+        r, rises, fired = composed_step(method, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work, rise_ulps)
+        if r.status != OK:
+            out[5] = r.status
             break
         out[0] += 1
         out[1] += per_step
         out[2] += rises
-        out[3] += S_new - S_x > rise_ulps * _steps.EPS * max(abs(S_x), abs(S_new))
+        out[3] += r.S - S_x > rise_ulps * EPS * max(abs(S_x), abs(r.S))
         out[4] += fired
-        x, comp, S_x = x_new, comp_new, S_new
+        x, comp, S_x = r.x, r.comp, r.S
     state[0], state[1], state[2] = x
+
+
+__all__ = ["GUARD", "composed_step", "leaf_step", "rise_statistics"]

@@ -6,7 +6,7 @@ axial vector ``Jbar`` parallel to ``dg S`` the step
 
     x' = x + h [ dgH x Jbar + eps dgH x (dgH x dgS) ]
 
-keeps H exactly and lowers S by ``h eps |dgH x dgS|^2`` (DESIGN.md section 2).
+keeps H exactly and lowers S by ``h eps |dgH x dgS|^2`` (docs/design.md section 2).
 
 Four discrete gradients share this field (``kind``): Gonzalez's, Itoh-Abe's
 (coordinate increments), Itoh-Abe's averaged over the six coordinate orderings,
@@ -14,10 +14,19 @@ and the average vector field (AVF, Gauss-Legendre nodes and weights in
 ``coeffs``).
 
 Switching rules.  A difference quotient ``[F(b) - F(a)] / d`` carries
-round-off ~ eps |F| / |d| (it is 0/0 when ``d = 0``).  Gonzalez and AVF use
-their correction term only where it exceeds its own round-off bound (see
-``gonzalez``): elsewhere the uncorrected gradient already satisfies the
-identity to round-off.  Itoh-Abe's per-coordinate quotients are replaced by the
+round-off ~ eps T / |d|, with T the size of the *terms* of F, not of F: at an
+equilibrium of the metriplectic Lorenz system the terms of H are ~1500 while
+H ~ -30 (it is 0/0 when ``d = 0``).  T is estimated as
+``max(|F(x)|, |F(x')|, |grad F|_inf |x|_inf)`` (for homogeneous F of degree k,
+``x . grad F = k F``; where terms cancel, ``|grad F| |x|`` still measures
+them; ``term_scale``).  Gonzalez and AVF use their correction term only where it exceeds its
+own round-off bound (see ``gonzalez``): elsewhere the uncorrected gradient
+already satisfies the identity to round-off, and adding the correction would
+add noise ~ eps T / |dx| that no Newton iteration can remove.  The small
+defect so skipped (< 2 ulp of T) has a consistent sign along a trajectory;
+whole steps are anchored to H(x0) (``steps.discrete_gradient_step``) and
+composed steps are pulled back onto H(x0) when they stray
+(``composition.composed_step``), so it never accumulates.  Itoh-Abe's per-coordinate quotients are replaced by the
 partial derivative at the edge's midpoint below ``|d| <= SWITCH * |x|_inf``,
 ``SWITCH = eps^(1/3)``, where the quotient's round-off and the derivative's
 defect ~ |d|^2 |F'''| are both below one ulp of F (this covers a coordinate
@@ -27,15 +36,11 @@ bound on the round-off it carries: the Newton iteration's floor.
 
 import numpy as np
 from numba import njit, types
+from numba.extending import overload
 
-from .field import ZERO, dissipative
-from .signatures import i64, mat, model_kernel, vec
-from .vec3 import as_vector, axpy, cross, dot, load, norm_inf, scale, sub
-
-GONZALEZ = 0
-ITOH_ABE = 1
-SYMMETRIZED_ITOH_ABE = 2
-AVF = 3
+from .field import SAFE_HIGH, SAFE_LOW, dissipative
+from .layout import AVF, GONZALEZ, ITOH_ABE, SYMMETRIZED_ITOH_ABE, AVFKind, GonzalezKind, ItohAbeKind, SymmetrizedItohAbeKind
+from .vec3 import ZERO, as_vector, axpy, cross, dot, is_finite, load, norm_inf, scale, sub
 
 EPS = np.finfo(np.float64).eps
 
@@ -45,28 +50,39 @@ SWITCH = EPS ** (1.0 / 3.0)
 
 
 @njit(inline="always")
-def gonzalez(grad_mid, f_old, f_new, dx):
+def term_scale(f_old, f_new, gradient, size):
+    """``max(|F(x)|, |F(x')|, |grad F|_inf |x|_inf)``: the size of the terms of F (module docstring)."""
+    return max(abs(f_old), abs(f_new), norm_inf(gradient) * size)
+
+
+@njit(inline="always")
+def gonzalez(grad_mid, f_old, f_new, dx, size, gain):
     """Gonzalez's discrete gradient (J. Nonlinear Sci. 6 (1996) 449, doi:10.1007/BF02440162).
 
         dgF = g + N / |dx|^2 dx,   N = F(x') - F(x) - g . dx,   g = grad F(xbar)
 
     Symmetric, second order.  With ``g`` any consistent approximation of the
     gradient (AVF's quadrature) it is the projection of ``g`` onto the
-    discrete-gradient condition.  Switching rule: N is computed with round-off
-    up to ``4 eps (|F(x)| + |F(x')| + |g . dx|)``; where |N| is below that, the
-    correction is round-off alone and ``g`` already satisfies the identity to
-    round-off, so it is used (this covers dx -> 0, where N = O(|dx|^3) for the
-    midpoint gradient, and F nearly constant, where the quotient would be noise
-    only).  ``dx`` is divided by its largest component first so that ``|dx|^2``
-    neither underflows nor overflows.  Returns ``(dgF, noise)``: ``noise``
-    bounds the round-off the correction carries (0 where ``g`` is used).
+    discrete-gradient condition.  Switching rule: N carries round-off up to
+    ``bound = 2 eps T`` (``term_scale``); where |N| is below that the correction
+    is round-off alone and ``g`` already satisfies the identity to round-off, so
+    it is used (this covers F nearly constant, where the quotient would be noise
+    only).  ``g`` is used too where the correction's round-off, ``bound / |dx|``,
+    carried into the step by ``gain`` (how far x' moves per unit change of the
+    discrete gradient: ``|h| (|J| + eps |dgH| |dgS| ...)``, see ``discrete_field``),
+    would exceed 1% of the step, ``bound gain > |dx|^2 / 100``: no iteration
+    could converge on such a quotient, and there ``|dx| <= 10 sqrt(bound gain)``
+    makes the skipped defect N = O(|dx|^3) far smaller than round-off.  ``dx`` is
+    divided by its largest component first so that ``|dx|^2`` neither
+    underflows nor overflows.  Returns ``(dgF, noise)``: ``noise`` bounds the
+    round-off the correction carries (0 where ``g`` is used).
     """
     slope = dot(grad_mid, dx)
     defect = f_new - f_old - slope
-    bound = 4.0 * EPS * (abs(f_old) + abs(f_new) + abs(slope))
-    if not abs(defect) > bound:
-        return grad_mid, 0.0
+    bound = 2.0 * EPS * term_scale(f_old, f_new, grad_mid, size)
     largest = norm_inf(dx)
+    if not abs(defect) > bound or not bound * gain <= 0.01 * largest * largest:
+        return grad_mid, 0.0
     unit = (dx[0] / largest, dx[1] / largest, dx[2] / largest)
     length2 = dot(unit, unit)
     return axpy(defect / largest / length2, unit, grad_mid), bound / (largest * np.sqrt(length2))
@@ -170,24 +186,69 @@ def average_gradient(grad_F, params, buf, x, dx, coeffs):
     return total
 
 
-@njit
-def discrete_gradient(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size):
+@njit(inline="always")
+def _gonzalez_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain):
+    dx = sub(x_new, x)
+    load(buf, axpy(0.5, dx, x))
+    return gonzalez(as_vector(grad_F(buf, params)), f_old, f_new, dx, size, gain)
+
+
+@njit(inline="always")
+def _avf_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain):
+    """AVF: the Gauss-Legendre average of grad F on the segment (Quispel, McLaren, J. Phys. A 41
+    (2008) 045206, doi:10.1088/1751-8113/41/4/045206), made an exact discrete gradient for any F by
+    Gonzalez's projection; the projection's correction vanishes (to round-off) when the rule
+    integrates grad F exactly."""
+    dx = sub(x_new, x)
+    return gonzalez(average_gradient(grad_F, params, buf, x, dx, coeffs), f_old, f_new, dx, size, gain)
+
+
+@njit(inline="always")
+def _itoh_abe_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain):
+    return itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size)
+
+
+@njit(inline="always")
+def _symmetrized_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain):
+    return symmetrized_itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size)
+
+
+@njit(error_model="numpy")
+def _by_code(code, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain):
+    if code == ITOH_ABE:
+        return _itoh_abe_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain)
+    if code == SYMMETRIZED_ITOH_ABE:
+        return _symmetrized_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain)
+    if code == AVF:
+        return _avf_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain)
+    return _gonzalez_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain)
+
+
+_BY_MARKER = {GonzalezKind: _gonzalez_dg, ItohAbeKind: _itoh_abe_dg, SymmetrizedItohAbeKind: _symmetrized_dg,
+              AVFKind: _avf_dg}
+
+
+def discrete_gradient(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain):
     """The discrete gradient of F at ``(x, x')`` selected by ``kind``, and its round-off bound.
 
-    AVF: the Gauss-Legendre average of grad F on the segment (Quispel, McLaren,
-    J. Phys. A 41 (2008) 045206, doi:10.1088/1751-8113/41/4/045206), made an exact
-    discrete gradient for any F by Gonzalez's projection; the projection's
-    correction vanishes (to round-off) when the rule integrates grad F exactly.
+    ``kind`` is a kind marker (``layout.GonzalezKind`` ...: the choice is made when
+    the kernel is compiled, so a run compiles only its own discrete gradient) or
+    an integer code (the stages of a composed program: chosen at run time).
     """
-    if kind == ITOH_ABE:
-        return itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size)
-    if kind == SYMMETRIZED_ITOH_ABE:
-        return symmetrized_itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size)
-    dx = sub(x_new, x)
-    if kind == AVF:
-        return gonzalez(average_gradient(grad_F, params, buf, x, dx, coeffs), f_old, f_new, dx)
-    load(buf, axpy(0.5, dx, x))
-    return gonzalez(as_vector(grad_F(buf, params)), f_old, f_new, dx)
+    code = kind if isinstance(kind, (int, np.integer)) else kind.code
+    return _by_code(code, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain)
+
+
+@overload(discrete_gradient)
+def _discrete_gradient_typed(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain):
+    if isinstance(kind, types.Integer):
+        return lambda kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain: _by_code(
+            kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain
+        )
+    impl = _BY_MARKER[kind.instance_class]
+    return lambda kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain: impl(
+        coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain
+    )
 
 
 @njit(inline="always")
@@ -207,38 +268,74 @@ def discrete_axial(axial, grad_s):
     return scale(dot(axial, n) / dot(n, n), n)
 
 
-@njit
-def discrete_field(kind, coeffs, H, grad_H, S, grad_S, J, params, eps, hamiltonian, buf, x, H_old, S_old, x_new):
-    """The discrete field F(x, x') and (H(x'), S(x'), dgH, dgS, Jbar, noise).
+@njit(inline="always")
+def polish(F, dg_h, dg_s, eps):
+    """F with ``F . dgH = 0`` and ``F . dgS = -eps |dgH x dgS|^2`` restored to the rounding of |F|.
 
-    Compiled as a function, not inlined (it is called from several places and
-    inlining its four discrete gradients multiplies compile time).
+    Both hold identically in exact arithmetic (triple products with a repeated
+    vector), so this changes the scheme by round-off only; but the cross
+    products round at the size of their *terms*, which in a stiff step
+    (``h eps |dgH|^2 |dgS| >> |x|``) exceed |F| by orders of magnitude, and that
+    rounding, along dgH, would move H by more than an ulp.  F loses its
+    component along dgH, then is moved along ``w``, the part of dgS orthogonal
+    to dgH (which keeps ``F . dgH``), to the exact rate of S.  Left as it is
+    outside the range where the products are safe (``field.SAFE_LOW/HIGH``).
+    """
+    a, b = norm_inf(dg_h), norm_inf(dg_s)
+    if not (SAFE_LOW <= a <= SAFE_HIGH and SAFE_LOW <= b <= SAFE_HIGH and is_finite(F)):
+        return F
+    gg = dot(dg_h, dg_h)
+    F = axpy(-dot(F, dg_h) / gg, dg_h, F)
+    w = axpy(-dot(dg_s, dg_h) / gg, dg_h, dg_s)
+    ww = dot(w, w)
+    if ww == 0.0:
+        return F
+    sigma = cross(dg_h, dg_s)
+    return axpy((-eps * dot(sigma, sigma) - dot(F, dg_s)) / ww, w, F)
+
+
+@njit(inline="always")
+def discrete_field(kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales):
+    """The discrete field F(x, x') and ``(H(x'), S(x'), dgH, dgS, Jbar, noise)``.
+
+    ``h`` and ``scales = (|J|, |dgH|, |dgS|)`` (from the caller's previous
+    evaluation; zeros for none) give the gains with which round-off in dgH and
+    dgS moves the step ``x' = x + h F`` (Gonzalez's switching rule):
+    ``|h| (|J| + 2 eps |dgH| |dgS|)`` for dgH and ``|h| (|J| / |dgS| + eps |dgH|^2)``
+    for dgS (through the direction of ``Jbar``).
+
+    Inlined into its two callers (the Newton loop and ``steps._residual``): a
+    run compiles one discrete gradient, so the copies stay small.
 
     ``J`` is called only with the Hamiltonian part on (else ``Jbar = 0``); S and
     its gradient are always needed, to keep ``Jbar`` parallel to dgS.
     ``noise`` bounds the round-off that the discrete gradients carry into F: the
     floor below which a Newton correction cannot go.
     """
+    p = model.params
     size = max(norm_inf(x), norm_inf(x_new))
     load(buf, x_new)
-    H_new = H(buf, params)
-    S_new = S(buf, params)
-    dg_h, noise_h = discrete_gradient(kind, coeffs, H, grad_H, params, buf, x, x_new, H_old, H_new, size)
-    dg_s, noise_s = discrete_gradient(kind, coeffs, S, grad_S, params, buf, x, x_new, S_old, S_new, size)
+    H_new = model.H(buf, p)
+    S_new = model.S(buf, p)
+    axial_size, size_h, size_s = scales
+    gain_h = abs(h) * ((axial_size if hamiltonian else 0.0) + 2.0 * eps * size_h * size_s)
+    gain_s = abs(h) * ((axial_size / size_s if hamiltonian and size_s > 0.0 else 0.0) + eps * size_h * size_h)
+    dg_h, noise_h = discrete_gradient(kind, coeffs, model.H, model.grad_H, p, buf, x, x_new, H_old, H_new, size, gain_h)
+    dg_s, noise_s = discrete_gradient(kind, coeffs, model.S, model.grad_S, p, buf, x, x_new, S_old, S_new, size, gain_s)
     size_h, size_s = norm_inf(dg_h), norm_inf(dg_s)
     noise = eps * (2.0 * noise_h * size_s + noise_s * size_h) * size_h
     axial_bar = ZERO
     if hamiltonian:
         load(buf, axpy(0.5, sub(x_new, x), x))
-        axial = as_vector(J(buf, params))
+        axial = as_vector(model.J(buf, p))
         axial_bar = discrete_axial(axial, dg_s)
         noise += noise_h * norm_inf(axial) + (size_h * norm_inf(axial) * noise_s / size_s if size_s > 0.0 else 0.0)
-    F = dissipative(dg_h, dg_s, eps, cross(dg_h, axial_bar))
+    F = polish(dissipative(dg_h, dg_s, eps, cross(dg_h, axial_bar)), dg_h, dg_s, eps)
     return F, H_new, S_new, dg_h, dg_s, axial_bar, noise
 
 
-@model_kernel(types.void, i64, vec, vec, vec, mat)
-def evaluate(H, grad_H, S, grad_S, J, params, kind, coeffs, x_old, x_new, out):
+@njit(cache=True, error_model="numpy")
+def evaluate(model, kind, coeffs, x_old, x_new, out):
     """Rows of ``out`` (3, 3): dgH, dgS and Jbar at the pair ``(x_old, x_new)``.
 
     Caller: ``DiscreteGradient.discrete_gradients`` (tests, diagnostics).
@@ -247,11 +344,10 @@ def evaluate(H, grad_H, S, grad_S, J, params, kind, coeffs, x_old, x_new, out):
     x = (x_old[0], x_old[1], x_old[2])
     xn = (x_new[0], x_new[1], x_new[2])
     load(buf, x)
-    H_old = H(buf, params)
-    S_old = S(buf, params)
-    F, H_new, S_new, dg_h, dg_s, axial, noise = discrete_field(
-        kind, coeffs, H, grad_H, S, grad_S, J, params, 0.0, True, buf, x, H_old, S_old, xn
-    )
+    H_old = model.H(buf, model.params)
+    S_old = model.S(buf, model.params)
+    F, H_new, S_new, dg_h, dg_s, axial, noise = discrete_field(kind, coeffs, model, 0.0, True, buf, x, H_old, S_old, xn,
+                                                                0.0, (0.0, 0.0, 0.0))
     for k in range(3):
         out[0, k] = dg_h[k]
         out[1, k] = dg_s[k]

@@ -7,40 +7,34 @@
 Kernels take ``hamiltonian`` (include xi_P) and ``eps`` (include xi_g when
 nonzero) and evaluate only what is switched on: with the Hamiltonian part off
 ``J`` is never called, with ``eps = 0`` the field never calls ``grad S``.
+The model arrives as ``layout.Model`` (first-class functions and params).
 """
 
 import numpy as np
-from numba import njit, types
+from numba import njit
 
-from .signatures import mat, model_kernel, vec
-from .vec3 import as_vector, axpy, cross, load, norm_inf
+from .layout import FN_GRAD_H, FN_GRAD_S, FN_H, FN_POISSON, FN_S, UNKNOWN
+from .vec3 import ZERO, as_vector, axpy, cross, is_finite, load, norm_inf
 
-
-@njit(inline="always")
-def gradients(grad_H, grad_S, J, params, buf, x):
-    """(grad H, grad S, J) at the tuple ``x``; ``buf`` is a length-3 work array."""
-    load(buf, x)
-    return (
-        as_vector(grad_H(buf, params)),
-        as_vector(grad_S(buf, params)),
-        as_vector(J(buf, params)),
-    )
-
-
-ZERO = (0.0, 0.0, 0.0)
+#: gradients with largest components in [SAFE_LOW, SAFE_HIGH] give a triple product
+#: (at most 2^600 or at least 2^-600) that neither overflows nor underflows.
+SAFE_LOW = 2.0**-200
+SAFE_HIGH = 2.0**200
 
 
 @njit(inline="always")
 def dissipative(grad_h, grad_s, eps, base):
     """``base + eps * grad_h x (grad_h x grad_s)``.
 
-    Evaluated as ``((eps a) (a b)) u x (u x v)`` with ``a, b`` the largest
-    components of grad_h, grad_s and ``u, v`` the scaled vectors, so the
-    triple product neither underflows nor overflows where the result does not
-    (states of size 1e-150 or 1e100).
+    Outside ``[SAFE_LOW, SAFE_HIGH]`` (states of size 1e-150 or 1e100) it is
+    evaluated as ``((eps a) (a b)) u x (u x v)`` with ``a, b`` the largest
+    components of grad_h, grad_s and ``u, v`` the scaled vectors, so the triple
+    product neither underflows nor overflows where the result does not.
     """
     a = norm_inf(grad_h)
     b = norm_inf(grad_s)
+    if SAFE_LOW <= a <= SAFE_HIGH and SAFE_LOW <= b <= SAFE_HIGH:
+        return axpy(eps, cross(grad_h, cross(grad_h, grad_s)), base)
     if a == 0.0 or b == 0.0 or not (np.isfinite(a) and np.isfinite(b)):
         return axpy(eps, cross(grad_h, cross(grad_h, grad_s)), base)
     u = (grad_h[0] / a, grad_h[1] / a, grad_h[2] / a)
@@ -49,29 +43,53 @@ def dissipative(grad_h, grad_s, eps, base):
 
 
 @njit(inline="always")
-def field(grad_H, grad_S, J, params, eps, hamiltonian, buf, x):
+def field(model, eps, hamiltonian, buf, x):
     """The metriplectic field xi(x), with only the switched-on parts evaluated."""
     load(buf, x)
-    grad_h = as_vector(grad_H(buf, params))
-    value = cross(grad_h, as_vector(J(buf, params))) if hamiltonian else ZERO
+    grad_h = as_vector(model.grad_H(buf, model.params))
+    value = cross(grad_h, as_vector(model.J(buf, model.params))) if hamiltonian else ZERO
     if eps != 0.0:
-        value = dissipative(grad_h, as_vector(grad_S(buf, params)), eps, value)
+        value = dissipative(grad_h, as_vector(model.grad_S(buf, model.params)), eps, value)
     return value
 
 
-@model_kernel(types.void, mat, vec, vec, mat, mat, mat)
-def evaluate(H, grad_H, S, grad_S, J, params, X, out_H, out_S, out_grad_H, out_grad_S, out_J):
+@njit(cache=True, error_model="numpy")
+def evaluate(model, X, out_H, out_S, out_grad_H, out_grad_S, out_J):
     """Fill H, S, grad H, grad S and J at every row of ``X`` (n, 3).
 
     Caller: ``MetriplecticSystem._evaluate``, which allocates the outputs.
     """
     buf = np.empty(3)
+    p = model.params
     for i in range(X.shape[0]):
-        x = (X[i, 0], X[i, 1], X[i, 2])
-        gh, gs, axial = gradients(grad_H, grad_S, J, params, buf, x)
-        out_H[i] = H(buf, params)
-        out_S[i] = S(buf, params)
+        load(buf, (X[i, 0], X[i, 1], X[i, 2]))
+        out_H[i] = model.H(buf, p)
+        out_S[i] = model.S(buf, p)
+        gh = as_vector(model.grad_H(buf, p))
+        gs = as_vector(model.grad_S(buf, p))
+        axial = as_vector(model.J(buf, p))
         for k in range(3):
             out_grad_H[i, k] = gh[k]
             out_grad_S[i, k] = gs[k]
             out_J[i, k] = axial[k]
+
+
+@njit(error_model="numpy")
+def non_finite_culprit(model, buf, x, hamiltonian):
+    """The first user function (``layout.FN_*``) that is not finite at ``x``, 0 if none is.
+
+    Called only after a step produced a non-finite value, to name the function in the report.
+    """
+    load(buf, x)
+    p = model.params
+    if not np.isfinite(model.H(buf, p)):
+        return FN_H
+    if not is_finite(as_vector(model.grad_H(buf, p))):
+        return FN_GRAD_H
+    if not np.isfinite(model.S(buf, p)):
+        return FN_S
+    if not is_finite(as_vector(model.grad_S(buf, p))):
+        return FN_GRAD_S
+    if hamiltonian and not is_finite(as_vector(model.J(buf, p))):
+        return FN_POISSON
+    return UNKNOWN

@@ -31,12 +31,13 @@ def rise_tolerance(S_old, S_new, grad_s, x):
 
 
 @njit(inline="always")
-def project_energy(H, grad_H, params, buf, x, target, max_iter):
+def project_energy(model, buf, x, target, max_iter):
     """``(y, H(y), iterations)``: ``y = x + lambda grad H(x)`` with ``H(y) = target`` to round-off.
 
     Newton on the scalar ``lambda``; keeps the iterate with the smallest
     ``|H(y) - target|`` and stops when the residual vanishes or stops shrinking.
     """
+    H, grad_H, params = model.H, model.grad_H, model.params
     d = as_vector(grad_H(load(buf, x), params))
     lam = 0.0
     best, best_H = x, H(load(buf, x), params)
@@ -62,10 +63,11 @@ def project_energy(H, grad_H, params, buf, x, target, max_iter):
 
 
 @njit(inline="always")
-def project_both(H, grad_H, S, grad_S, params, buf, x, H_target, S_target, max_iter):
+def project_both(model, buf, x, H_target, S_target, max_iter):
     """``(y, H(y), S(y), converged, iterations)``: ``y = x + lambda grad H(x) + mu grad S(x)``
     with ``H(y) = H_target`` and ``S(y) = S_target``, by Newton's method on ``(lambda, mu)``.
     """
+    H, grad_H, S, grad_S, params = model.H, model.grad_H, model.S, model.grad_S, model.params
     load(buf, x)
     dh = as_vector(grad_H(buf, params))
     ds = as_vector(grad_S(buf, params))

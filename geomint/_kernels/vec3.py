@@ -5,6 +5,9 @@ from numba import njit, types
 from numba.extending import overload
 
 
+ZERO = (0.0, 0.0, 0.0)
+
+
 @njit(inline="always")
 def add(u, v):
     return (u[0] + v[0], u[1] + v[1], u[2] + v[2])

@@ -1,10 +1,10 @@
-"""What a method is: small declarative objects with an order and traits; no step loops.
+"""What a method is: small declarative objects with traits; no step loops.
 
-Each integrator lowers itself to ``(code, coeffs, iopts)`` for the shared
-engine in ``geomint._kernels``.
+Each integrator lowers itself (``lower(system)``) to method data for the shared
+engine in ``geomint._kernels``.  ``INTEGRATORS`` is the one table of short names.
 """
 
-from .base import Integrator, resolve
+from .base import Integrator, Traits
 from .composition import SCHEMES, Composition, KahanLi6, KahanLi8, Suzuki4, SuzukiUmeno8, Yoshida4, Yoshida6
 from .discrete_gradient import AVF, DampedGonzalez, DiscreteGradient, Gonzalez, ItohAbe, SymmetrizedItohAbe
 from .exact_flows import OscillatorRotation, RigidBodyFlow, RotorSplitting
@@ -13,8 +13,29 @@ from .projection import Projected
 from .runge_kutta import RK4
 from .splitting import Lie, Strang
 
+#: short name -> class, for ``solve(method="gonzalez")``, scenes and the command line
+INTEGRATORS = {
+    cls.name: cls
+    for cls in (
+        Gonzalez, ItohAbe, SymmetrizedItohAbe, AVF, DampedGonzalez, RK4, Lie, Strang, Projected,
+        Yoshida4, Suzuki4, Yoshida6, KahanLi6, SuzukiUmeno8, KahanLi8,
+        RigidBodyFlow, RotorSplitting, OscillatorRotation,
+    )
+}
+
+
+def resolve(method):
+    """An ``Integrator`` from an instance or a short name such as ``"gonzalez"`` (default options)."""
+    if isinstance(method, Integrator):
+        return method
+    if isinstance(method, str) and method.lower() in INTEGRATORS:
+        return INTEGRATORS[method.lower()]()
+    raise ValueError(f"`method` must be an Integrator instance or one of {sorted(INTEGRATORS)}; got {method!r}.")
+
+
 __all__ = [
-    "AVF", "Composition", "DampedGonzalez", "DiscreteGradient", "Gonzalez", "Integrator", "ItohAbe", "KahanLi6",
-    "KahanLi8", "Lie", "OscillatorRotation", "Projected", "RK4", "RigidBodyFlow", "RotorSplitting", "SCHEMES",
-    "S_rise_statistics", "Strang", "Suzuki4", "SuzukiUmeno8", "SymmetrizedItohAbe", "Yoshida4", "Yoshida6", "resolve",
+    "AVF", "Composition", "DampedGonzalez", "DiscreteGradient", "Gonzalez", "INTEGRATORS", "Integrator", "ItohAbe",
+    "KahanLi6", "KahanLi8", "Lie", "OscillatorRotation", "Projected", "RK4", "RigidBodyFlow", "RotorSplitting",
+    "SCHEMES", "S_rise_statistics", "Strang", "Suzuki4", "SuzukiUmeno8", "SymmetrizedItohAbe", "Traits", "Yoshida4",
+    "Yoshida6", "resolve",
 ]

@@ -1,24 +1,18 @@
-"""The integrator protocol and the short-name lookup."""
+"""The integrator protocol: what a method declares, and how it reaches the engine."""
 
 from dataclasses import dataclass
 from typing import ClassVar
 
-import numpy as np
-
 
 @dataclass(frozen=True)
-class Integrator:
-    """A one-step method as data.
-
-    Class attributes declare what the method guarantees; the tests check every
-    declaration (orders by measurement, invariants per step).
+class Traits:
+    """What a method guarantees; the tests check every declaration (orders by measurement,
+    invariants per step).
 
     Attributes
     ----------
-    name : str
-        Short name accepted by ``geomint.solve(method=...)``.
-    order : int
-        Classical order of accuracy.
+    order : int or float
+        Classical order of accuracy (``math.inf`` for an exact flow).
     energy_exact : bool
         H(x_{n+1}) = H(x_n) to round-off at every step.
     dissipative : bool
@@ -29,51 +23,50 @@ class Integrator:
         Each step solves a nonlinear equation (Newton iterations are counted).
     """
 
-    name: ClassVar[str]
-    order: ClassVar[int]
-    energy_exact: ClassVar[bool]
-    dissipative: ClassVar[bool]
-    symmetric: ClassVar[bool]
-    implicit: ClassVar[bool]
+    order: float
+    energy_exact: bool
+    dissipative: bool
+    symmetric: bool
+    implicit: bool
 
-    def lower(self):
-        """``(code, coeffs, iopts)`` for the compiled engine."""
+
+class Integrator:
+    """A one-step method as data: a short ``name``, its ``traits`` and how it lowers to the engine.
+
+    Leaf methods declare ``traits`` as a class constant; wrappers (splittings,
+    compositions, projections) compute them from their parts.  ``order``,
+    ``energy_exact``, ``dissipative``, ``symmetric`` and ``implicit`` read
+    ``traits`` on an instance.
+    """
+
+    name: ClassVar[str]
+    #: integrates only one part of the field (a sub-flow of a splitting): ``"hamiltonian"`` or ``"gradient"``
+    flows: ClassVar[tuple] = ("full", "hamiltonian", "gradient")
+
+    @property
+    def traits(self):
         raise NotImplementedError
 
-    def bind(self, system, x0):
-        """``lower()`` for a run of ``system`` from ``x0``: methods that apply only to some
-        systems raise ``ValueError`` here, and methods that need a run constant
-        (a projection's target ``H(x0)``) add it.  Caller: ``geomint.solve``."""
-        return self.lower()
+    order = property(lambda self: self.traits.order, doc="Classical order of accuracy.")
+    energy_exact = property(lambda self: self.traits.energy_exact, doc="H kept to round-off at every step.")
+    dissipative = property(lambda self: self.traits.dissipative, doc="S never rises (to round-off).")
+    symmetric = property(lambda self: self.traits.symmetric, doc="The method is its own adjoint.")
+    implicit = property(lambda self: self.traits.implicit, doc="Each step solves a nonlinear equation.")
 
-    @staticmethod
-    def _data(code, coeffs=(), iopts=()):
-        return code, np.asarray(coeffs, dtype=np.float64).reshape(-1), np.asarray(iopts, dtype=np.int64).reshape(-1)
+    @property
+    def whole_field(self):
+        """True when the method integrates the whole metriplectic field (not a sub-flow only)."""
+        return "full" in self.flows
 
+    def check_system(self, system):
+        """Raise ``ValueError`` when the method (or a part of it) does not apply to ``system``."""
 
-def resolve(method):
-    """An ``Integrator`` from an instance or a short name such as ``"gonzalez"``."""
-    if isinstance(method, Integrator):
-        return method
-    names = _short_names()
-    if isinstance(method, str) and method.lower() in names:
-        return names[method.lower()]()
-    raise ValueError(
-        f"`method` must be an Integrator instance or one of {sorted(names)}; got {method!r}."
-    )
+    def stage(self, system):
+        """``(leaf code, discrete-gradient kind, max_iter, damped, compensated, coefficients)``: this method
+        as one stage of a composed program (``program.Program``)."""
+        raise TypeError(f"{self!r} cannot be a stage of a splitting or composition: use it on the whole field.")
 
-
-def _short_names():
-    from . import composition, discrete_gradient, exact_flows, projection, runge_kutta, splitting
-
-    classes = (
-        discrete_gradient.Gonzalez,
-        discrete_gradient.ItohAbe,
-        discrete_gradient.SymmetrizedItohAbe,
-        discrete_gradient.AVF,
-        discrete_gradient.DampedGonzalez,
-        runge_kutta.RK4,
-    )
-    classes += (splitting.Lie, splitting.Strang, projection.Projected, *composition.WRAPPERS)
-    classes += (exact_flows.RigidBodyFlow, exact_flows.RotorSplitting, exact_flows.OscillatorRotation)
-    return {cls.name: cls for cls in classes}
+    def lower(self, system):
+        """The method data (a named tuple of ``geomint._kernels.layout``) for a run of ``system``.
+        Caller: ``geomint.solve``, after ``check_system``."""
+        raise NotImplementedError

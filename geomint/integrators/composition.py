@@ -8,7 +8,7 @@ methods of order 4, 6, 8.  All real schemes above order 2 have negative gammas
 (Blanes, Casas, Chartier, Murua, arXiv:1102.1622), so some sub-steps run the
 gradient flow backwards and raise S; ``monotone=True`` redoes any full step
 that raised S with ``Gonzalez()`` (order 2, never raises S).
-Coefficients from Hairer's ``gni_comp.f`` (REFERENCES.md); see Hairer, Lubich,
+Coefficients from Hairer's ``gni_comp.f`` (docs/references.md); see Hairer, Lubich,
 Wanner, *Geometric Numerical Integration*, section V.3.
 """
 
@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from decimal import Decimal, localcontext
 from typing import ClassVar
 
-from .base import Integrator
+from .base import Integrator, Traits
 from .discrete_gradient import Gonzalez
 from .program import Program, Programmed, program_of
 
@@ -87,8 +87,10 @@ class Composition(Programmed, Integrator):
     def __post_init__(self):
         if not isinstance(self.base, Integrator):
             raise TypeError(f"`base` must be a geomint Integrator; got {self.base!r}.")
-        if self.scheme not in SCHEMES:
+        if not isinstance(self.scheme, str) or self.scheme not in SCHEMES:
             raise ValueError(f"`scheme` must be one of {sorted(SCHEMES)}; got {self.scheme!r}.")
+        if not self.base.whole_field:
+            raise ValueError(f"`base` must integrate the whole field; {self.base!r} integrates only the {self.base.flows[0]} flow.")
         if not (self.base.symmetric and self.base.order == 2):
             raise ValueError(
                 f"`base` must be symmetric and of order 2 for {self.scheme!r} to reach order {self.order}; "
@@ -98,24 +100,9 @@ class Composition(Programmed, Integrator):
             raise TypeError(f"`monotone` must be True or False; got {self.monotone!r}.")
 
     @property
-    def order(self):
-        return SCHEMES[self.scheme][0]
-
-    @property
-    def energy_exact(self):
-        return self.base.energy_exact
-
-    @property
-    def dissipative(self):
-        return self.monotone
-
-    @property
-    def symmetric(self):
-        return not self.monotone
-
-    @property
-    def implicit(self):
-        return self.base.implicit or self.monotone
+    def traits(self):
+        return Traits(order=SCHEMES[self.scheme][0], energy_exact=self.base.energy_exact, dissipative=self.monotone,
+                      symmetric=not self.monotone, implicit=self.base.implicit or self.monotone)
 
     def program(self):
         base = program_of(self.base)

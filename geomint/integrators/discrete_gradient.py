@@ -6,7 +6,8 @@ Every method here is the one metriplectic step
 
 (``H(x') = H(x)``, ``S(x') - S(x) = -h eps |dgH x dgS|^2 <= 0``) with a
 different discrete gradient ``dg``; one compiled Newton loop
-(``geomint._kernels.steps.discrete_gradient_increment``) serves all of them.
+(``geomint._kernels.steps.discrete_gradient_step``) serves all of them, and a
+run compiles only the discrete gradient it uses.
 """
 
 import math
@@ -16,8 +17,8 @@ from typing import ClassVar
 import numpy as np
 
 from .._kernels import discrete_gradient as _dg
-from .._kernels import steps as _steps
-from .base import Integrator
+from .._kernels import layout
+from .base import Integrator, Traits
 
 
 @dataclass(frozen=True)
@@ -38,24 +39,25 @@ class DiscreteGradient(Integrator):
     max_newton_iter: int = 50
     compensated: bool = True
 
-    energy_exact: ClassVar[bool] = True
-    dissipative: ClassVar[bool] = True
-    implicit: ClassVar[bool] = True
     kind: ClassVar[int]
     damped: ClassVar[bool] = False
 
     def __post_init__(self):
-        if isinstance(self.max_newton_iter, bool) or not isinstance(self.max_newton_iter, int) or self.max_newton_iter < 1:
-            raise ValueError(f"`max_newton_iter` must be an integer >= 1; got {self.max_newton_iter!r}.")
+        if isinstance(self.max_newton_iter, bool) or not isinstance(self.max_newton_iter, int) or not 1 <= self.max_newton_iter <= 10**6:
+            raise ValueError(f"`max_newton_iter` must be an integer in [1, 10**6]; got {self.max_newton_iter!r}.")
         if not isinstance(self.compensated, bool):
             raise TypeError(f"`compensated` must be True or False; got {self.compensated!r}.")
 
     def _coeffs(self):
-        return ()
+        return np.empty(0)
 
-    def lower(self):
-        iopts = (self.kind, self.max_newton_iter, self.damped, self.compensated)
-        return self._data(_steps.DISCRETE_GRADIENT, self._coeffs(), iopts)
+    def stage(self, system):
+        return layout.LEAF_DISCRETE_GRADIENT, self.kind, self.max_newton_iter, self.damped, self.compensated, self._coeffs()
+
+    def lower(self, system):
+        return layout.DiscreteGradientStep(
+            layout.KIND_MARKERS[self.kind](self.kind), self.max_newton_iter, self.damped, self.compensated, self._coeffs()
+        )
 
     def discrete_gradients(self, system, x, x_new):
         """``(dgH, dgS, Jbar)`` at the pair of states ``(x, x_new)``, as the step uses them.
@@ -65,7 +67,7 @@ class DiscreteGradient(Integrator):
         """
         out = np.empty((3, 3))
         pair = [np.ascontiguousarray(v, dtype=np.float64) for v in (x, x_new)]
-        _dg.evaluate[system.form](*system.model, self.kind, self.lower()[1], *pair, out)
+        _dg.evaluate(system.model, layout.KIND_MARKERS[self.kind](self.kind), self._coeffs(), *pair, out)
         return out[0], out[1], out[2]
 
 
@@ -77,15 +79,14 @@ class Gonzalez(DiscreteGradient):
 
     Symmetric, order 2.  Reference: O. Gonzalez, Time integration and discrete
     Hamiltonian systems, J. Nonlinear Sci. 6 (1996) 449-467,
-    doi:10.1007/BF02440162; for the metriplectic form, DESIGN.md section 2.
+    doi:10.1007/BF02440162; for the metriplectic form, docs/design.md section 2.
     Not L-stable: with ``h eps`` large it reflects the fast dissipative modes
     (docs/hard_cases.md); use ``DampedGonzalez`` there.
     """
 
     name: ClassVar[str] = "gonzalez"
-    order: ClassVar[int] = 2
-    symmetric: ClassVar[bool] = True
-    kind: ClassVar[int] = _dg.GONZALEZ
+    traits: ClassVar[Traits] = Traits(order=2, energy_exact=True, dissipative=True, symmetric=True, implicit=True)
+    kind: ClassVar[int] = layout.GONZALEZ
 
 
 @dataclass(frozen=True)
@@ -108,9 +109,8 @@ class DampedGonzalez(DiscreteGradient):
     """
 
     name: ClassVar[str] = "damped_gonzalez"
-    order: ClassVar[int] = 2
-    symmetric: ClassVar[bool] = False
-    kind: ClassVar[int] = _dg.GONZALEZ
+    traits: ClassVar[Traits] = Traits(order=2, energy_exact=True, dissipative=True, symmetric=False, implicit=True)
+    kind: ClassVar[int] = layout.GONZALEZ
     damped: ClassVar[bool] = True
 
 
@@ -130,9 +130,8 @@ class ItohAbe(DiscreteGradient):
     """
 
     name: ClassVar[str] = "itoh_abe"
-    order: ClassVar[int] = 1
-    symmetric: ClassVar[bool] = False
-    kind: ClassVar[int] = _dg.ITOH_ABE
+    traits: ClassVar[Traits] = Traits(order=1, energy_exact=True, dissipative=True, symmetric=False, implicit=True)
+    kind: ClassVar[int] = layout.ITOH_ABE
 
 
 @dataclass(frozen=True)
@@ -146,9 +145,8 @@ class SymmetrizedItohAbe(DiscreteGradient):
     """
 
     name: ClassVar[str] = "symmetrized_itoh_abe"
-    order: ClassVar[int] = 2
-    symmetric: ClassVar[bool] = True
-    kind: ClassVar[int] = _dg.SYMMETRIZED_ITOH_ABE
+    traits: ClassVar[Traits] = Traits(order=2, energy_exact=True, dissipative=True, symmetric=True, implicit=True)
+    kind: ClassVar[int] = layout.SYMMETRIZED_ITOH_ABE
 
 
 @dataclass(frozen=True)
@@ -178,9 +176,8 @@ class AVF(DiscreteGradient):
     degree: int | None = None
 
     name: ClassVar[str] = "avf"
-    order: ClassVar[int] = 2
-    symmetric: ClassVar[bool] = True
-    kind: ClassVar[int] = _dg.AVF
+    traits: ClassVar[Traits] = Traits(order=2, energy_exact=True, dissipative=True, symmetric=True, implicit=True)
+    kind: ClassVar[int] = layout.AVF
 
     def __post_init__(self):
         super().__post_init__()

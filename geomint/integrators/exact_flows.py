@@ -1,60 +1,51 @@
-"""Exact and explicit Hamiltonian sub-flows for specific catalogue systems.
+"""Exact and explicit Hamiltonian sub-flows that a system declares it admits.
 
 Each applies to the Hamiltonian part ``xi_P`` only: inside ``Lie``/``Strang``
-as the Hamiltonian sub-integrator, or alone on a system with ``eps = 0``.
-``solve`` checks the system (``bind``) and raises ``ValueError`` otherwise.
+as the Hamiltonian sub-integrator, or alone on a system with ``eps = 0``.  A
+system admits one by declaring it (``MetriplecticSystem(exact_flows={...})``,
+checked at sample points when the system is built; the catalogue's rigid
+bodies and oscillator declare theirs); ``solve`` raises ``ValueError`` for a
+system that does not.
 """
 
 import math
 from dataclasses import dataclass
 from typing import ClassVar
 
-
-from .._kernels import composition as _comp
-from ..systems import oscillator as _oscillator
-from ..systems import rigid_body as _rigid_body
-from .base import Integrator
+from .._kernels import layout
+from .base import Integrator, Traits
 from .program import Program
 
 
 @dataclass(frozen=True)
 class _HamiltonianFlow(Integrator):
-    """A leaf method of the Hamiltonian flow alone, for the systems in ``applies_to``."""
+    """A leaf method of the Hamiltonian flow alone, for systems that declare it."""
 
     flows: ClassVar[tuple] = ("hamiltonian",)
     leaf_code: ClassVar[int]
     applies_to: ClassVar[str]
-    dissipative: ClassVar[bool] = True
-    implicit: ClassVar[bool] = False
-
-    def _matches(self, system):
-        raise NotImplementedError
 
     def check_system(self, system):
-        if not self._matches(system):
+        if self.name not in system.exact_flows:
             raise ValueError(
-                f"`method` {self!r} applies only to {self.applies_to}; got {system!r}. Use Gonzalez() for this flow."
+                f"`method` {self!r} applies only to systems that declare exact_flows={{'{self.name}': ...}} "
+                f"({self.applies_to}); {system!r} declares {sorted(system.exact_flows) or 'none'}. "
+                "Use Gonzalez() for this flow."
             )
+
+    def stage(self, system):
+        return self.leaf_code, 0, 0, 0, 0, system.exact_flows[self.name]
 
     def program(self):
         return Program(((self, "hamiltonian", 1.0),))
 
-    def lower(self):
-        return self.program().lower()
-
-    def bind(self, system, x0):
-        self.check_system(system)
+    def lower(self, system):
         if system.eps != 0.0:
             raise ValueError(
                 f"`method` {self!r} integrates the Hamiltonian part only, so alone it needs eps = 0; got eps = "
                 f"{system.eps!r}. Use it inside Strang(...) or on system.with_effects(eps=0)."
             )
-        return self.lower()
-
-
-def _is_rigid_body(system, grad_H_functions):
-    f = system.functions
-    return f.poisson is _rigid_body._identity_J and any(f.grad_H is g for g in grad_H_functions)
+        return self.program().lower(system)
 
 
 @dataclass(frozen=True)
@@ -64,18 +55,14 @@ class RigidBodyFlow(_HamiltonianFlow):
 
     Keeps H and ``|m|`` to round-off; exact, so it has no finite order.
     Reference: Celledoni, Fasso, Safstrom, Zanna, SIAM J. Sci. Comput. 30 (2008)
-    2084, doi:10.1137/070704393.  Applies to ``relaxing_rigid_body``.
+    2084, doi:10.1137/070704393.  A system admits it by declaring
+    ``exact_flows={"rigid_body_flow": (a, b, c)}`` (``relaxing_rigid_body`` does).
     """
 
     name: ClassVar[str] = "rigid_body_flow"
-    order: ClassVar[float] = math.inf
-    energy_exact: ClassVar[bool] = True
-    symmetric: ClassVar[bool] = True
-    leaf_code: ClassVar[int] = _comp.RIGID_BODY_FLOW
-    applies_to: ClassVar[str] = "the relaxing rigid body (quadratic H, J = m)"
-
-    def _matches(self, system):
-        return _is_rigid_body(system, (_rigid_body._quadratic_grad_H,))
+    traits: ClassVar[Traits] = Traits(order=math.inf, energy_exact=True, dissipative=True, symmetric=True, implicit=False)
+    leaf_code: ClassVar[int] = layout.LEAF_RIGID_BODY_FLOW
+    applies_to: ClassVar[str] = "quadratic H = (a x^2 + b y^2 + c z^2)/2 with J = m"
 
 
 @dataclass(frozen=True)
@@ -85,38 +72,31 @@ class RotorSplitting(_HamiltonianFlow):
     For ``H = sum_i H_i(m_i)`` the flow of ``H_i`` turns ``m`` about axis ``i`` by
     ``t dH_i/dm_i``.  Symmetric, order 2, Poisson; keeps ``|m|`` (so S) to
     round-off but not H.  Reference: McLachlan, Phys. Rev. Lett. 71 (1993) 3043,
-    doi:10.1103/PhysRevLett.71.3043.  Applies to both catalogue rigid bodies.
+    doi:10.1103/PhysRevLett.71.3043.  Declared as ``exact_flows={"rotor_splitting": ()}``
+    (both catalogue rigid bodies).
     """
 
     name: ClassVar[str] = "rotor_splitting"
-    order: ClassVar[int] = 2
-    energy_exact: ClassVar[bool] = False
-    symmetric: ClassVar[bool] = True
-    leaf_code: ClassVar[int] = _comp.ROTOR_SPLITTING
-    applies_to: ClassVar[str] = "the catalogue rigid bodies (separable H, J = m)"
-
-    def _matches(self, system):
-        return _is_rigid_body(system, (_rigid_body._quadratic_grad_H, _rigid_body._quartic_grad_H))
+    traits: ClassVar[Traits] = Traits(order=2, energy_exact=False, dissipative=True, symmetric=True, implicit=False)
+    leaf_code: ClassVar[int] = layout.LEAF_ROTOR_SPLITTING
+    applies_to: ClassVar[str] = "separable H = sum_i H_i(m_i) with J = m"
 
 
 @dataclass(frozen=True)
 class OscillatorRotation(_HamiltonianFlow):
-    """The exact Hamiltonian flow of the dissipative oscillator: ``(x, y)`` turn clockwise at unit rate.
+    """The exact Hamiltonian flow ``x' = x x J`` for ``H = |x|^2/2`` and constant ``J``: a rotation
+    about ``J`` by ``-|J| t``.
 
-    ``x' = x x J`` with ``J = (0, 0, 1)`` is the rotation about ``J`` by ``-t``;
-    keeps H and S (a function of z) exactly.  Applies to ``dissipative_oscillator``.
+    Keeps H and every function of ``x . J`` exactly.  Declared as
+    ``exact_flows={"oscillator_rotation": ()}`` (``dissipative_oscillator``).
     """
 
     name: ClassVar[str] = "oscillator_rotation"
-    order: ClassVar[float] = math.inf
-    energy_exact: ClassVar[bool] = True
-    symmetric: ClassVar[bool] = True
-    leaf_code: ClassVar[int] = _comp.ROTATION
-    applies_to: ClassVar[str] = "the dissipative oscillator (H = |x|^2/2, J = (0, 0, 1))"
-
-    def _matches(self, system):
-        f = system.functions
-        return f.grad_H is _oscillator._grad_H and f.poisson is _oscillator._J
+    traits: ClassVar[Traits] = Traits(order=math.inf, energy_exact=True, dissipative=True, symmetric=True, implicit=False)
+    leaf_code: ClassVar[int] = layout.LEAF_ROTATION
+    applies_to: ClassVar[str] = "H = |x|^2/2 with a constant J"
 
 
-__all__ = ["OscillatorRotation", "RigidBodyFlow", "RotorSplitting"]
+EXACT_FLOWS = (RigidBodyFlow, RotorSplitting, OscillatorRotation)
+
+__all__ = ["EXACT_FLOWS", "OscillatorRotation", "RigidBodyFlow", "RotorSplitting"]

@@ -1,10 +1,11 @@
 """How splittings, compositions and projections lower to the one engine.
 
 A ``Program`` is the flat description that ``geomint._kernels.composition``
-runs: stages (a leaf method on a flow, with a fraction of the step), the
-composition's gammas, the monotone safeguard and the projection.  Any method
-that is not itself a program (``RK4()``, ``Gonzalez()``, the exact flows) is a
-one-stage program on the full field.
+runs: stages (a method on a flow, with a fraction of the step), the
+composition's gammas, the monotone safeguard and the projection.  Every stage
+carries its own method data (``Integrator.stage``), so any method composes,
+splits and projects.  A method that is not itself a program is a one-stage
+program on the full field.
 """
 
 from dataclasses import dataclass
@@ -12,11 +13,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._kernels import composition as _comp
-from .._kernels import steps as _steps
+from .._kernels import layout
 from ..system import MetriplecticSystem
 
-FLOWS = {"full": _comp.FULL, "hamiltonian": _comp.HAMILTONIAN, "gradient": _comp.GRADIENT}
-_ALL_FLOWS = tuple(FLOWS)
+FLOWS = {"full": layout.FULL, "hamiltonian": layout.HAMILTONIAN, "gradient": layout.GRADIENT}
 
 
 @dataclass(frozen=True)
@@ -29,23 +29,27 @@ class Program:
     stages: tuple
     gammas: tuple = (1.0,)
     monotone: bool = False
-    projection: int = _comp.NO_PROJECTION
+    projection: int = layout.NO_PROJECTION
     max_iter: int = 50
 
-    def lower(self):
-        """``(code, coeffs, iopts)`` for ``steps.step`` (layout in ``_kernels/composition.py``)."""
+    def energy_exact(self):
+        return all(method.energy_exact for method, _, _ in self.stages)
+
+    def lower(self, system):
+        """A ``layout.ComposedStep`` (layout in ``_kernels/composition.py``)."""
         from .discrete_gradient import Gonzalez
 
-        leaves = [(method, flow) for method, flow, _ in self.stages] + [(Gonzalez(), "full")]
-        header = [len(self.gammas), len(self.stages), int(self.monotone), self.projection, self.max_iter]
-        rows, leaf_iopts = [], []
-        first = _comp.HEADER + _comp.ROW * len(leaves)
-        for method, flow in leaves:
-            code, iopts = leaf_data(method)
-            rows += [code, FLOWS[flow], first + len(leaf_iopts)]
-            leaf_iopts += list(iopts)
+        anchor = self.projection == layout.NO_PROJECTION and self.energy_exact()
+        header = [len(self.gammas), len(self.stages), int(self.monotone), self.projection, self.max_iter, int(anchor)]
         coeffs = [*self.gammas, *(fraction for _, _, fraction in self.stages)]
-        return _steps.COMPOSED, np.array(coeffs, dtype=np.float64), np.array(header + rows + leaf_iopts, dtype=np.int64)
+        rows = []
+        for method, flow in [(method, flow) for method, flow, _ in self.stages] + [(Gonzalez(), "full")]:
+            leaf, kind, max_iter, damped, compensated, data = method.stage(system)
+            rows += [leaf, FLOWS[flow], kind, max_iter, int(damped), int(compensated), len(coeffs), len(data)]
+            coeffs += [float(c) for c in data]
+        iopts = np.array(header + rows, dtype=np.int64)
+        slots = len(self.gammas) * len(self.stages) + 1
+        return layout.ComposedStep(np.array(coeffs, dtype=np.float64), iopts, slots)
 
 
 class Programmed:
@@ -55,28 +59,11 @@ class Programmed:
         raise NotImplementedError
 
     def check_system(self, system):
-        """Raise ``ValueError`` if a sub-integrator does not apply to ``system`` (exact flows)."""
         for method in self.sub_methods():
-            check_applies(method, system)
+            method.check_system(system)
 
-    def bind(self, system, x0):
-        self.check_system(system)
-        return self.lower()
-
-    def lower(self):
-        return self.program().lower()
-
-
-def leaf_data(method):
-    """``(leaf code, iopts)`` of a method used as one stage of a program."""
-    if hasattr(method, "leaf_code"):
-        return method.leaf_code, ()
-    code, coeffs, iopts = method.lower()
-    if code not in (_steps.RK4, _steps.DISCRETE_GRADIENT) or coeffs.size:
-        raise TypeError(
-            f"a sub-integrator must be a one-step method (RK4(), Gonzalez(), an exact flow); got {method!r}."
-        )
-    return code, iopts
+    def lower(self, system):
+        return self.program().lower(system)
 
 
 def program_of(method):
@@ -84,17 +71,10 @@ def program_of(method):
     return method.program() if hasattr(method, "program") else Program(((method, "full", 1.0),))
 
 
-def check_applies(method, system):
-    """Raise ``ValueError`` if ``method`` (or one of its sub-integrators) does not apply to ``system``."""
-    if hasattr(method, "check_system"):
-        method.check_system(system)
-
-
 def check_flow(argument, method, flow):
     """Raise ``ValueError`` if ``method`` cannot integrate the sub-flow ``flow``."""
-    flows = getattr(method, "flows", _ALL_FLOWS)
-    if flow not in flows:
-        raise ValueError(f"`{argument}` must integrate the {flow} flow; {method!r} integrates only the {flows[0]} flow.")
+    if flow not in method.flows:
+        raise ValueError(f"`{argument}` must integrate the {flow} flow; {method!r} integrates only the {method.flows[0]} flow.")
 
 
 def S_rise_statistics(system, method, x0, h, n_steps, ulps=16):
@@ -107,14 +87,14 @@ def S_rise_statistics(system, method, x0, h, n_steps, ulps=16):
     """
     if not isinstance(system, MetriplecticSystem):
         raise TypeError(f"`system` must be a geomint.MetriplecticSystem; got {type(system).__name__}.")
-    check_applies(method, system)
+    method.check_system(system)
     state = np.array(x0, dtype=np.float64)
     if state.shape != (3,) or not np.all(np.isfinite(state)):
         raise ValueError(f"`x0` must be 3 finite numbers; got {x0!r}.")
-    code, coeffs, iopts = program_of(method).lower()
     out = np.zeros(6, dtype=np.int64)
-    _comp.rise_statistics[system.form](
-        *system.model, system.eps, system.hamiltonian, coeffs, iopts, state, float(h), int(n_steps), float(ulps), out
+    _comp.rise_statistics(
+        system.model, system.eps, system.hamiltonian, program_of(method).lower(system), state, float(h), int(n_steps),
+        float(ulps), out,
     )
     keys = ("steps", "sub_steps", "sub_step_rises", "full_step_rises", "safeguard_fired", "status")
     return dict(zip(keys, (int(v) for v in out)))

@@ -1,9 +1,10 @@
 """Projection onto ``H = H0`` that never raises S: any method made energy-exact."""
 
 from dataclasses import dataclass, field
+from typing import ClassVar
 
-from .._kernels import composition as _comp
-from .base import Integrator
+from .._kernels import layout
+from .base import Integrator, Traits
 from .program import Program, Programmed, program_of
 from .runge_kutta import RK4
 
@@ -47,14 +48,17 @@ class Projected(Programmed, Integrator):
     """
 
     method: Integrator = field(default_factory=RK4)
-    symmetric: bool = field(default=False, kw_only=True)  # kw_only: after `method` (the trait's slot is first)
+    symmetric: bool = field(default=False, kw_only=True)
     max_iter: int = field(default=50, kw_only=True)
 
-    name = "projected"
+    name: ClassVar[str] = "projected"
 
     def __post_init__(self):
         if not isinstance(self.method, Integrator) or isinstance(self.method, Projected):
             raise TypeError(f"`method` must be a geomint Integrator that is not already projected; got {self.method!r}.")
+        if not self.method.whole_field:
+            raise ValueError(f"`method` must integrate the whole field; {self.method!r} integrates only the "
+                             f"{self.method.flows[0]} flow.")
         if not isinstance(self.symmetric, bool):
             raise TypeError(f"`symmetric` must be True or False; got {self.symmetric!r}.")
         if self.symmetric and not self.method.symmetric:
@@ -62,23 +66,17 @@ class Projected(Programmed, Integrator):
                 f"`symmetric=True` keeps a symmetric method symmetric; {self.method!r} is not symmetric. "
                 "Use symmetric=False."
             )
-        if not isinstance(self.max_iter, int) or isinstance(self.max_iter, bool) or self.max_iter < 1:
-            raise ValueError(f"`max_iter` must be an integer >= 1; got {self.max_iter!r}.")
+        if not isinstance(self.max_iter, int) or isinstance(self.max_iter, bool) or not 1 <= self.max_iter <= 10**6:
+            raise ValueError(f"`max_iter` must be an integer in [1, 10**6]; got {self.max_iter!r}.")
 
     @property
-    def order(self):
-        return self.method.order
-
-    energy_exact = True
-    dissipative = True
-
-    @property
-    def implicit(self):
-        return self.method.implicit
+    def traits(self):
+        return Traits(order=self.method.order, energy_exact=True, dissipative=True, symmetric=self.symmetric,
+                      implicit=self.method.implicit)
 
     def program(self):
         inner = program_of(self.method)
-        mode = _comp.SYMMETRIC if self.symmetric else _comp.STANDARD
+        mode = layout.SYMMETRIC if self.symmetric else layout.STANDARD
         return Program(inner.stages, inner.gammas, inner.monotone, mode, self.max_iter)
 
     def sub_methods(self):

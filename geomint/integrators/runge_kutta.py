@@ -3,8 +3,8 @@
 from dataclasses import dataclass
 from typing import ClassVar
 
-from .._kernels import steps as _steps
-from .base import Integrator
+from .._kernels import layout
+from .base import Integrator, Traits
 
 
 @dataclass(frozen=True)
@@ -17,11 +17,10 @@ class RK4(Integrator):
     """
 
     name: ClassVar[str] = "rk4"
-    order: ClassVar[int] = 4
-    energy_exact: ClassVar[bool] = False
-    dissipative: ClassVar[bool] = False
-    symmetric: ClassVar[bool] = False
-    implicit: ClassVar[bool] = False
+    traits: ClassVar[Traits] = Traits(order=4, energy_exact=False, dissipative=False, symmetric=False, implicit=False)
 
-    def lower(self):
-        return self._data(_steps.RK4)
+    def stage(self, system):
+        return layout.LEAF_RK4, 0, 0, 0, 0, ()
+
+    def lower(self, system):
+        return layout.RungeKutta4(4)

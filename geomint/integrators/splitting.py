@@ -3,7 +3,7 @@ r"""Lie and Strang splittings of the Hamiltonian flow and the gradient flow.
     x' = xi_P(x)  +  eps xi_g(x)
          \_ A _/     \__ B __/
 
-``A`` keeps H and S, ``B`` keeps H and lowers S (DESIGN.md section 3).  Each
+``A`` keeps H and S, ``B`` keeps H and lowers S (docs/design.md section 3).  Each
 flow gets its own sub-integrator: an exact flow (``RigidBodyFlow``,
 ``OscillatorRotation``), the explicit ``RotorSplitting``, or any one-step
 method restricted to that flow (``Gonzalez()`` on ``system.with_effects(eps=0)``
@@ -13,9 +13,9 @@ resp. ``with_effects(hamiltonian=False)``, done inside the kernel).
 from dataclasses import dataclass, field
 from typing import ClassVar
 
-from .base import Integrator
+from .base import Integrator, Traits
 from .discrete_gradient import Gonzalez
-from .program import Program, Programmed, check_flow, leaf_data
+from .program import Program, Programmed, check_flow
 
 
 @dataclass(frozen=True)
@@ -29,20 +29,15 @@ class _Splitting(Programmed, Integrator):
                 raise TypeError(f"`{argument}` must be a geomint Integrator; got {method!r}.")
         check_flow("hamiltonian_part", self.hamiltonian_part, "hamiltonian")
         check_flow("gradient_part", self.gradient_part, "gradient")
-        leaf_data(self.hamiltonian_part)  # one-step methods only: TypeError now, not in solve
-        leaf_data(self.gradient_part)
+        for argument, method in (("hamiltonian_part", self.hamiltonian_part), ("gradient_part", self.gradient_part)):
+            if isinstance(method, Programmed):
+                raise TypeError(f"`{argument}` must be a one-step method (Gonzalez(), AVF(), RK4(), an exact flow); "
+                                f"got {method!r}.")
 
-    @property
-    def energy_exact(self):
-        return self.hamiltonian_part.energy_exact and self.gradient_part.energy_exact
-
-    @property
-    def dissipative(self):
-        return self.hamiltonian_part.dissipative and self.gradient_part.dissipative
-
-    @property
-    def implicit(self):
-        return self.hamiltonian_part.implicit or self.gradient_part.implicit
+    def _traits(self, order, symmetric):
+        a, b = self.hamiltonian_part, self.gradient_part
+        return Traits(order=order, energy_exact=a.energy_exact and b.energy_exact, dissipative=a.dissipative and b.dissipative,
+                      symmetric=symmetric, implicit=a.implicit or b.implicit)
 
     def sub_methods(self):
         return (self.hamiltonian_part, self.gradient_part)
@@ -59,8 +54,10 @@ class Lie(_Splitting):
     """
 
     name: ClassVar[str] = "lie"
-    order: ClassVar[int] = 1
-    symmetric: ClassVar[bool] = False
+
+    @property
+    def traits(self):
+        return self._traits(1, False)
 
     def program(self):
         return Program(((self.hamiltonian_part, "hamiltonian", 1.0), (self.gradient_part, "gradient", 1.0)))
@@ -77,12 +74,9 @@ class Strang(_Splitting):
     name: ClassVar[str] = "strang"
 
     @property
-    def order(self):
-        return min(2, self.hamiltonian_part.order, self.gradient_part.order)
-
-    @property
-    def symmetric(self):
-        return self.hamiltonian_part.symmetric and self.gradient_part.symmetric
+    def traits(self):
+        a, b = self.hamiltonian_part, self.gradient_part
+        return self._traits(min(2, a.order, b.order), a.symmetric and b.symmetric)
 
     def program(self):
         a, b = self.hamiltonian_part, self.gradient_part

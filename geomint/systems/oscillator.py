@@ -50,12 +50,12 @@ def dissipative_oscillator(coefficients=(0.0, 0.0, 1.0), eps=1.0):
     The default ``S = z^2`` is the paper's example: the equators of the spheres
     H = const are attracting cycles and the poles unstable equilibria.
     ``coefficients = (0, 0, 0.5)`` gives S = z^2/2 and ``(0, 1)`` gives S = z
-    (REFERENCES.md R5); ``(0,)`` gives S = 0, the unperturbed oscillator.
+    (problem R5 of docs/references.md); ``(0,)`` gives S = 0, the unperturbed oscillator.
     """
     coefficients = np.atleast_1d(np.asarray(coefficients, dtype=np.float64))
     if coefficients.ndim != 1 or coefficients.size == 0:
         raise ValueError(f"`coefficients` must be a non-empty 1-D sequence; got {coefficients.tolist()!r}.")
     return MetriplecticSystem(
         H=_H, grad_H=_grad_H, S=_S, grad_S=_grad_S, J=_J, eps=eps, params=coefficients,
-        name="dissipative_oscillator",
+        name="dissipative_oscillator", exact_flows={"oscillator_rotation": ()},
     )

@@ -46,12 +46,13 @@ def relaxing_rigid_body(a=0.5, b=1.0, c=1.5, eps=1.0):
     ``eps = 0`` it is the free rigid body.  For distinct coefficients the
     trajectory relaxes to the pole on the axis of the largest coefficient, where
     ``S = H0 / c_max``; with two equal coefficients there is a circle of
-    equilibria.  Defaults are REFERENCES.md R2.
+    equilibria.  Defaults are problem R2 of docs/references.md.
     """
     params = [_check_coefficient(k, v) for k, v in (("a", a), ("b", b), ("c", c))]
     return MetriplecticSystem(
         H=_quadratic_H, grad_H=_quadratic_grad_H, S=_sphere_S, grad_S=_sphere_grad_S, J=_identity_J,
         eps=eps, params=params, name="relaxing_rigid_body",
+        exact_flows={"rigid_body_flow": params, "rotor_splitting": ()},
     )
 
 
@@ -96,5 +97,5 @@ def quartic_rigid_body(a=0.5, b=1.0, c=1.5, k=0.5, eps=1.0):
         raise ValueError(f"`k` must be finite and >= 0; got {k!r}.")
     return MetriplecticSystem(
         H=_quartic_H, grad_H=_quartic_grad_H, S=_quartic_S, grad_S=_quartic_grad_S, J=_identity_J,
-        eps=eps, params=params + [k], name="quartic_rigid_body",
+        eps=eps, params=params + [k], name="quartic_rigid_body", exact_flows={"rotor_splitting": ()},
     )

@@ -1,0 +1,120 @@
+"""Every integer code, array layout and named tuple the kernels and ``geomint.solve`` share.
+
+One module, imported by all the others and importing none of them, so the
+kernels have no import cycle.
+
+Method data.  An integrator lowers itself (``Integrator.lower(system)``) to one
+of the named tuples below; their *class* selects the compiled step at typing
+time (``driver.step``), so a run compiles only the family it uses: a Gonzalez
+run compiles neither compositions nor the other discrete gradients.
+"""
+
+from collections import namedtuple
+
+# -- step status ------------------------------------------------------------------------------
+OK = 0
+NEWTON_FAILED = -1
+NON_FINITE = -2
+PROJECTION_FAILED = -3
+
+# -- which user function produced a non-finite value (counters[CULPRIT]) ------------------------
+UNKNOWN = 0
+FN_H = 1
+FN_GRAD_H = 2
+FN_S = 3
+FN_GRAD_S = 4
+FN_POISSON = 5
+FUNCTION_NAMES = {UNKNOWN: None, FN_H: "H", FN_GRAD_H: "grad_H", FN_S: "S", FN_GRAD_S: "grad_S", FN_POISSON: "J/P"}
+
+# -- counters (int64 array shared by driver.integrate and geomint.solve) --------------------------
+STEPS = 0
+NEWTON_ITERATIONS = 1
+FIELD_EVALUATIONS = 2
+STATUS = 3
+FAILED_STEP = 4
+ROWS = 5
+CULPRIT = 6
+N_COUNTERS = 7
+
+# -- run state (float64 array carried from chunk to chunk) -------------------------------------
+#    x (3), its compensation (3), the energy anchor H(x0), S(x_n)
+STATE_X = 0
+STATE_COMP = 3
+STATE_ANCHOR = 6
+STATE_S = 7
+N_STATE = 8
+
+# -- per-slot workspace of an implicit step (float64), one slot per sub-step position --------------
+#    the last three accepted increments (predictor), the step they were taken with, how many are
+#    valid, and the Jacobian D xi(x) of the field the slot integrates (simplified Newton)
+W_DX1 = 0
+W_DX2 = 3
+W_DX3 = 6
+W_H = 9
+W_HISTORY = 10
+W_JACOBIAN = 11
+W_JACOBIAN_VALID = 20
+WORK = 21
+
+# -- flows a stage integrates --------------------------------------------------------------------
+FULL = 0
+HAMILTONIAN = 1
+GRADIENT = 2
+
+# -- discrete gradients --------------------------------------------------------------------------
+GONZALEZ = 0
+ITOH_ABE = 1
+SYMMETRIZED_ITOH_ABE = 2
+AVF = 3
+
+# -- leaves of a composed program ----------------------------------------------------------------
+LEAF_RK4 = 0
+LEAF_DISCRETE_GRADIENT = 1
+LEAF_RIGID_BODY_FLOW = 2
+LEAF_ROTOR_SPLITTING = 3
+LEAF_ROTATION = 4
+
+# -- projections ---------------------------------------------------------------------------------
+NO_PROJECTION = 0
+STANDARD = 1
+SYMMETRIC = 2
+
+# -- composed program layout (iopts) -------------------------------------------------------------
+#    header, then one row per stage (and the safeguard's fallback leaf last):
+#    leaf code, flow, discrete-gradient kind, max_iter, damped, compensated, first coefficient, count
+P_GAMMAS = 0
+P_STAGES = 1
+P_MONOTONE = 2
+P_PROJECTION = 3
+P_MAX_ITER = 4
+P_ANCHOR = 5
+HEADER = 6
+R_LEAF = 0
+R_FLOW = 1
+R_KIND = 2
+R_MAX_ITER = 3
+R_DAMPED = 4
+R_COMPENSATED = 5
+R_COEFF_AT = 6
+R_COEFF_COUNT = 7
+ROW = 8
+
+# -- results and method data -----------------------------------------------------------------------
+StepResult = namedtuple("StepResult", "x comp H S status iterations evaluations residual culprit")
+
+#: the classical Runge-Kutta method (no data)
+RungeKutta4 = namedtuple("RungeKutta4", "stages")
+
+#: the metriplectic discrete-gradient step; ``kind`` is one of the kind markers below
+DiscreteGradientStep = namedtuple("DiscreteGradientStep", "kind max_iter damped compensated coeffs")
+GonzalezKind = namedtuple("GonzalezKind", "code")
+ItohAbeKind = namedtuple("ItohAbeKind", "code")
+SymmetrizedItohAbeKind = namedtuple("SymmetrizedItohAbeKind", "code")
+AVFKind = namedtuple("AVFKind", "code")
+KIND_MARKERS = {GONZALEZ: GonzalezKind, ITOH_ABE: ItohAbeKind, SYMMETRIZED_ITOH_ABE: SymmetrizedItohAbeKind, AVF: AVFKind}
+
+#: splittings, compositions and projections: a flat program (``composition``)
+ComposedStep = namedtuple("ComposedStep", "coeffs iopts slots")
+
+#: the model as every kernel receives it: the user's functions (compiled, first-class) and params
+Model = namedtuple("Model", "H grad_H S grad_S J params")

@@ -1,0 +1,126 @@
+"""The engine's shape (issue 10): kernel modules without import cycles, compile only what a run uses,
+any method as a stage of a splitting, composition or projection, exact flows declared by systems,
+and the integrator protocol read from instances."""
+
+import ast
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numba
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import geomint
+from geomint.testing import observed_order
+
+KERNELS = Path(geomint.__file__).parent / "_kernels"
+
+
+def test_kernel_modules_import_each_other_without_a_cycle():
+    """The graph of relative imports between kernel modules is acyclic (a topological order exists)."""
+    graph = {}
+    for path in KERNELS.glob("*.py"):
+        tree = ast.parse(path.read_text())
+        graph[path.stem] = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.level == 1
+                            and node.module} | {alias.name for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
+                                                and node.level == 1 and node.module is None for alias in node.names}
+    order, done = [], set()
+    while len(done) < len(graph):
+        ready = [m for m in graph if m not in done and graph[m] <= done | {m}]
+        assert ready, f"import cycle among {sorted(set(graph) - done)}: {({m: sorted(graph[m]) for m in graph if m not in done})}"
+        done.update(ready)
+        order += sorted(ready)
+    assert order[0] in ("layout", "vec3") and order[-1] == "driver", order
+
+
+COMPILED = """
+import geomint
+from geomint._kernels import composition, discrete_gradient, driver
+body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
+assert geomint.solve(body, [0.4536, 0.0, 0.8912], (0.0, 1.0), 0.05, method="gonzalez").success
+kinds = {str(sig[0]) for sig in driver.integrate.signatures}
+print(len(kinds), "DiscreteGradientStep(GonzalezKind" in " ".join(kinds), len(composition.composed_step.signatures),
+      len(discrete_gradient._by_code.signatures))
+"""
+
+
+@pytest.mark.skipif(numba.config.DISABLE_JIT, reason="compiled code only")
+def test_a_gonzalez_run_compiles_neither_compositions_nor_other_discrete_gradients():
+    out = subprocess.run([sys.executable, "-c", COMPILED], capture_output=True, text=True, timeout=900,
+                         env={**os.environ})
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["1", "True", "0", "0"], out.stdout
+
+
+STEPS = [0.2, 0.1, 0.05, 0.025, 0.0125]
+
+
+@pytest.mark.parametrize("method", [
+    geomint.Yoshida4(geomint.AVF()), geomint.Projected(geomint.AVF()), geomint.Strang(geomint.Gonzalez(), geomint.AVF()),
+    geomint.Strang(geomint.RigidBodyFlow(), geomint.AVF()),
+], ids=repr)
+def test_any_method_is_a_stage_and_keeps_its_declared_order(method):
+    """AVF (a method with coefficients of its own) composes, projects and splits, at the declared order."""
+    body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.5)
+    x0 = [np.cos(1.1), 0.0, np.sin(1.1)]
+    exact = solve_ivp(lambda t, x: body.xi(x), (0.0, 2.0), x0, method="DOP853", rtol=1e-13, atol=1e-15).y[:, -1]
+    errors = []
+    for h in STEPS:
+        sol = geomint.solve(body, x0, (0.0, 2.0), h, method=method)
+        assert sol.success, sol.message
+        errors.append(np.max(np.abs(sol.x_final - exact)))
+    order = observed_order(STEPS, errors, floor=1e-12)
+    print(f"{method!r}: order {order:.3f}")
+    assert abs(order - method.order) <= 0.15
+
+
+@numba.njit(cache=True)
+def _H(m, p):
+    return 0.5 * (0.3 * m[0] * m[0] + 0.9 * m[1] * m[1] + 2.0 * m[2] * m[2])
+
+
+@numba.njit(cache=True)
+def _grad_H(m, p):
+    return (0.3 * m[0], 0.9 * m[1], 2.0 * m[2])
+
+
+@numba.njit(cache=True)
+def _S(m, p):
+    return 0.5 * (m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
+
+
+@numba.njit(cache=True)
+def _m(m, p):
+    return (m[0], m[1], m[2])
+
+
+def test_a_users_own_rigid_body_declares_and_runs_its_exact_flow():
+    body = geomint.MetriplecticSystem(H=_H, grad_H=_grad_H, S=_S, grad_S=_m, J=_m, eps=0.2,
+                                      exact_flows={"rigid_body_flow": (0.3, 0.9, 2.0)})
+    sol = geomint.solve(body, [0.6, 0.5, 0.4], (0.0, 50.0), 0.1, method=geomint.Strang(geomint.RigidBodyFlow()))
+    assert sol.success, sol.message
+    assert sol.energy_error < 1e-14 and sol.S_rises == 0
+    undeclared = geomint.MetriplecticSystem(H=_H, grad_H=_grad_H, S=_S, grad_S=_m, J=_m, eps=0.2)
+    with pytest.raises(ValueError, match="declare exact_flows"):
+        geomint.solve(undeclared, [0.6, 0.5, 0.4], (0.0, 1.0), 0.1, method=geomint.Strang(geomint.RigidBodyFlow()))
+    with pytest.raises(ValueError, match=r"hold for rigid_body_flow: grad H = \(a x, b y, c z\)"):
+        geomint.MetriplecticSystem(H=_H, grad_H=_grad_H, S=_S, grad_S=_m, J=_m, exact_flows={"rigid_body_flow": (1, 1, 2)})
+
+
+def test_traits_are_instance_facts_and_the_cli_prints_them():
+    for name, cls in geomint.integrators.INTEGRATORS.items():
+        method = cls()
+        assert isinstance(method.order, (int, float)) and isinstance(method.energy_exact, bool), name
+    assert not geomint.Yoshida4().dissipative and geomint.Yoshida4(monotone=True).dissipative
+    assert geomint.Strang(geomint.RigidBodyFlow(), geomint.Gonzalez()).order == 2
+    assert geomint.Projected(geomint.Yoshida6()).order == 6 and geomint.Projected().energy_exact
+    from io import StringIO
+
+    from geomint.cli import list_all
+
+    out = StringIO()
+    list_all(out)
+    assert "property object" not in out.getvalue() and "yoshida6                order 6" in out.getvalue()
