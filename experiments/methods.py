@@ -80,12 +80,12 @@ def geomint_methods(module=geomint, skipped=None):
         cls = getattr(module, name)
         if not (isinstance(cls, type) and issubclass(cls, module.Integrator)) or cls is module.Integrator:
             continue
-        if cls in known or hasattr(cls, "flows"):  # flows: a sub-flow integrator, a part of splittings only
+        if cls in known:
             continue
         try:
             integrator = cls()
-            integrator.lower()
-        except (TypeError, ValueError, NotImplementedError):
+        except (TypeError, ValueError):
             continue
-        methods.append(Method(name, integrator))
+        if integrator.whole_field:  # sub-flow integrators are parts of splittings only
+            methods.append(Method(name, integrator))
     return methods

@@ -23,7 +23,7 @@ _ADVICE = {
     _layout.PROJECTION_FAILED: "A smaller step `h` keeps the projection's move small.",
 }
 #: steps per call of the compiled loop: between chunks ``solve`` reports progress
-CHUNK = 1 << 17
+CHUNK = 100_000
 #: the most steps one run may take (step indices and counts stay exact in float64 and int64)
 MAX_STEPS = 1 << 52
 

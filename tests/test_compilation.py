@@ -13,7 +13,7 @@ import geomint
 from geomint._kernels import driver
 body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
 sol = geomint.solve(body, [0.4536, 0.0, 0.8912], (0.0, 1.0), 0.05)
-stats = driver.integrate[body.form].stats
+stats = driver.integrate.stats
 print(sum(stats.cache_hits.values()), sum(stats.cache_misses.values()), sol.success, time.perf_counter() - start)
 """
 

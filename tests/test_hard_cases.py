@@ -106,7 +106,7 @@ def test_huge_steps_and_stiff_dissipation(method, h, eps):
     sol = geomint.solve(body, X0, (0.0, 20 * h), h, method=method)
     _exact_run(sol)
     if not sol.success:
-        assert sol.status in (-1, -2)
+        assert sol.status in (-1, -2, -3)
         assert f"Step {sol.failed_step} " in sol.message and "are kept" in sol.message
         assert sol.n_steps == sol.failed_step - 1
 
@@ -129,7 +129,7 @@ def test_stiff_relaxation(method):
     body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=1e3)
     sol = geomint.solve(body, X0, (0.0, 10.0), 0.1, method=method)
     if method.name in REFUSES_STIFF:
-        assert not sol.success and sol.status in (-1, -2), f"{method.name} now runs: update REFUSES_STIFF and docs"
+        assert not sol.success and sol.status in (-1, -2, -3), f"{method.name} now runs: update REFUSES_STIFF and docs"
         assert f"Step {sol.failed_step} " in sol.message
         _exact_run(sol)
         return

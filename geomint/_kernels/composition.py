@@ -27,7 +27,9 @@ trajectory (the midpoint defect the switching rule skips), so over many steps
 it would drift linearly.  ``P_ANCHOR`` (set for energy-exact programs without a
 projection) pulls the full step back onto ``H = H(x0)``: when H has strayed by
 more than 2 ulp of its terms, a projection along grad H (a move of a few ulps)
-restores it, and is kept only if it does not raise S beyond round-off.
+restores it, keeping S at most where the full step started (moving along
+grad S too where grad H alone would raise it beyond that), and is skipped
+where that finds no point.
 Compensated summation (``steps.advance``) runs through every sub-step; a
 projection restarts it (the projected state is the state).
 
@@ -46,7 +48,7 @@ from .layout import (
     SYMMETRIC, UNKNOWN, WORK, StepResult,
 )
 from .projection import project_both, project_energy, rise_tolerance
-from .steps import EPS, GUARD, _kept, advance, discrete_gradient_step, rk4_step
+from .steps import EPS, _kept, advance, discrete_gradient_step, rk4_step
 from .vec3 import ZERO, add, as_vector, axpy, dot, is_finite, load, norm_inf, sub
 
 #: a composed step off H(x0) by more than this many ulps of the terms of H is pulled back
@@ -162,17 +164,22 @@ def _symmetric_projection(coeffs, iopts, model, eps, hamiltonian, buf, x, target
 
 
 @njit(error_model="numpy")
-def _pull_back(model, buf, y, H_y, S_y, anchor, max_iter):
+def _pull_back(model, buf, y, H_y, S_y, anchor, S_limit, max_iter):
     """``y`` moved along grad H back onto ``H = anchor`` when it strayed beyond ``ANCHOR_ULPS`` of the
-    terms of H (see the module docstring); kept only if S does not rise beyond round-off.
-    Returns ``(y, H(y), S(y), evaluations)``."""
+    terms of H (see the module docstring), keeping S at most ``S_limit`` (S at the start of the full
+    step, or the step's own S where it rose) to round-off.  Returns ``(y, H(y), S(y), evaluations)``."""
     grad_h = as_vector(model.grad_H(load(buf, y), model.params))
-    if abs(H_y - anchor) <= ANCHOR_ULPS * EPS * term_scale(anchor, H_y, grad_h, norm_inf(y)):
+    if abs(H_y - anchor) <= ANCHOR_ULPS * EPS * term_scale(anchor, H_y, grad_h, y):
         return y, H_y, S_y, 1
     z, H_z, it = project_energy(model, buf, y, anchor, max_iter)
     S_z = model.S(load(buf, z), model.params)
     grad_s = as_vector(model.grad_S(buf, model.params))
-    if abs(H_z - anchor) < abs(H_y - anchor) and S_z - S_y <= rise_tolerance(S_y, S_z, grad_s, z):
+    if S_z - S_limit > rise_tolerance(S_limit, S_z, grad_s, z):  # along grad S too: H = anchor, S = S_limit
+        z, H_z, S_z, converged, more = project_both(model, buf, y, anchor, S_limit, max_iter)
+        it += more
+        if not converged:
+            return y, H_y, S_y, it + 4
+    if abs(H_z - anchor) < abs(H_y - anchor):
         return z, H_z, S_z, it + 4
     return y, H_y, S_y, it + 4
 
@@ -210,7 +217,7 @@ def composed_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, 
         evaluations += it + 2
         comp_y = ZERO
         grad_h = as_vector(model.grad_H(load(buf, y), model.params))
-        if not _kept(H_anchor, H_y, term_scale(H_anchor, H_y, grad_h, norm_inf(y)), 64.0, 0.0):
+        if not _kept(H_anchor, H_y, term_scale(H_anchor, H_y, grad_h, y), 64.0, 0.0):
             return StepResult(y, comp_y, H_y, S_y, PROJECTION_FAILED, iterations, evaluations, residual, UNKNOWN), rises, fired
         S_y = model.S(load(buf, y), model.params)
         grad_s = as_vector(model.grad_S(buf, model.params))
@@ -220,7 +227,7 @@ def composed_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, 
             if not converged:
                 return StepResult(y, comp_y, H_y, S_y, PROJECTION_FAILED, iterations, evaluations, residual, UNKNOWN), rises, fired
     elif iopts[P_ANCHOR]:
-        z, H_y, S_y, ev = _pull_back(model, buf, y, H_y, S_y, H_anchor, max_iter)
+        z, H_y, S_y, ev = _pull_back(model, buf, y, H_y, S_y, H_anchor, max(S_x, S_y), max_iter)
         evaluations += ev
         if z[0] != y[0] or z[1] != y[1] or z[2] != y[2]:
             y, comp_y = z, ZERO
@@ -254,5 +261,3 @@ def rise_statistics(model, eps, hamiltonian, method, state, h, n_steps, rise_ulp
         x, comp, S_x = r.x, r.comp, r.S
     state[0], state[1], state[2] = x
 
-
-__all__ = ["GUARD", "composed_step", "leaf_step", "rise_statistics"]

@@ -17,8 +17,8 @@ Switching rules.  A difference quotient ``[F(b) - F(a)] / d`` carries
 round-off ~ eps T / |d|, with T the size of the *terms* of F, not of F: at an
 equilibrium of the metriplectic Lorenz system the terms of H are ~1500 while
 H ~ -30 (it is 0/0 when ``d = 0``).  T is estimated as
-``max(|F(x)|, |F(x')|, |grad F|_inf |x|_inf)`` (for homogeneous F of degree k,
-``x . grad F = k F``; where terms cancel, ``|grad F| |x|`` still measures
+``max(|F(x)|, |F(x')|, sum_i |d_i F x_i|)`` (for homogeneous F of degree k,
+``x . grad F = k F``; where terms cancel, ``sum_i |d_i F x_i|`` still measures
 them; ``term_scale``).  Gonzalez and AVF use their correction term only where it exceeds its
 own round-off bound (see ``gonzalez``): elsewhere the uncorrected gradient
 already satisfies the identity to round-off, and adding the correction would
@@ -38,7 +38,7 @@ import numpy as np
 from numba import njit, types
 from numba.extending import overload
 
-from .field import SAFE_HIGH, SAFE_LOW, dissipative
+from .field import dissipative
 from .layout import AVF, GONZALEZ, ITOH_ABE, SYMMETRIZED_ITOH_ABE, AVFKind, GonzalezKind, ItohAbeKind, SymmetrizedItohAbeKind
 from .vec3 import ZERO, as_vector, axpy, cross, dot, is_finite, load, norm_inf, scale, sub
 
@@ -50,13 +50,13 @@ SWITCH = EPS ** (1.0 / 3.0)
 
 
 @njit(inline="always")
-def term_scale(f_old, f_new, gradient, size):
-    """``max(|F(x)|, |F(x')|, |grad F|_inf |x|_inf)``: the size of the terms of F (module docstring)."""
-    return max(abs(f_old), abs(f_new), norm_inf(gradient) * size)
+def term_scale(f_old, f_new, gradient, x):
+    """``max(|F(x)|, |F(x')|, sum_i |d_i F x_i|)``: the size of the terms of F (module docstring)."""
+    return max(abs(f_old), abs(f_new), abs(gradient[0] * x[0]) + abs(gradient[1] * x[1]) + abs(gradient[2] * x[2]))
 
 
 @njit(inline="always")
-def gonzalez(grad_mid, f_old, f_new, dx, size, gain):
+def gonzalez(grad_mid, f_old, f_new, dx, x_new, gain):
     """Gonzalez's discrete gradient (J. Nonlinear Sci. 6 (1996) 449, doi:10.1007/BF02440162).
 
         dgF = g + N / |dx|^2 dx,   N = F(x') - F(x) - g . dx,   g = grad F(xbar)
@@ -79,7 +79,7 @@ def gonzalez(grad_mid, f_old, f_new, dx, size, gain):
     """
     slope = dot(grad_mid, dx)
     defect = f_new - f_old - slope
-    bound = 2.0 * EPS * term_scale(f_old, f_new, grad_mid, size)
+    bound = 2.0 * EPS * term_scale(f_old, f_new, grad_mid, x_new)
     largest = norm_inf(dx)
     if not abs(defect) > bound or not bound * gain <= 0.01 * largest * largest:
         return grad_mid, 0.0
@@ -190,7 +190,7 @@ def average_gradient(grad_F, params, buf, x, dx, coeffs):
 def _gonzalez_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain):
     dx = sub(x_new, x)
     load(buf, axpy(0.5, dx, x))
-    return gonzalez(as_vector(grad_F(buf, params)), f_old, f_new, dx, size, gain)
+    return gonzalez(as_vector(grad_F(buf, params)), f_old, f_new, dx, x_new, gain)
 
 
 @njit(inline="always")
@@ -200,7 +200,7 @@ def _avf_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain):
     Gonzalez's projection; the projection's correction vanishes (to round-off) when the rule
     integrates grad F exactly."""
     dx = sub(x_new, x)
-    return gonzalez(average_gradient(grad_F, params, buf, x, dx, coeffs), f_old, f_new, dx, size, gain)
+    return gonzalez(average_gradient(grad_F, params, buf, x, dx, coeffs), f_old, f_new, dx, x_new, gain)
 
 
 @njit(inline="always")
@@ -278,20 +278,27 @@ def polish(F, dg_h, dg_s, eps):
     (``h eps |dgH|^2 |dgS| >> |x|``) exceed |F| by orders of magnitude, and that
     rounding, along dgH, would move H by more than an ulp.  F loses its
     component along dgH, then is moved along ``w``, the part of dgS orthogonal
-    to dgH (which keeps ``F . dgH``), to the exact rate of S.  Left as it is
-    outside the range where the products are safe (``field.SAFE_LOW/HIGH``).
+    to dgH (which keeps ``F . dgH``), to the exact rate of S; where ``w`` is
+    itself round-off (dgS parallel to dgH: an equilibrium of the gradient
+    part) that second move is skipped.  Computed with ``u = dgH / a``,
+    ``v = dgS / b`` (a, b their largest components), so it works at any scale.
     """
     a, b = norm_inf(dg_h), norm_inf(dg_s)
-    if not (SAFE_LOW <= a <= SAFE_HIGH and SAFE_LOW <= b <= SAFE_HIGH and is_finite(F)):
+    if a == 0.0 or not (np.isfinite(a) and is_finite(F)):
         return F
-    gg = dot(dg_h, dg_h)
-    F = axpy(-dot(F, dg_h) / gg, dg_h, F)
-    w = axpy(-dot(dg_s, dg_h) / gg, dg_h, dg_s)
+    u = (dg_h[0] / a, dg_h[1] / a, dg_h[2] / a)
+    uu = dot(u, u)
+    F = axpy(-dot(F, u) / uu, u, F)
+    if b == 0.0 or not np.isfinite(b):
+        return F
+    v = (dg_s[0] / b, dg_s[1] / b, dg_s[2] / b)
+    w = axpy(-dot(v, u) / uu, u, v)
     ww = dot(w, w)
-    if ww == 0.0:
+    if not ww > (64.0 * EPS) ** 2 * dot(v, v):
         return F
-    sigma = cross(dg_h, dg_s)
-    return axpy((-eps * dot(sigma, sigma) - dot(F, dg_s)) / ww, w, F)
+    sigma = cross(u, v)
+    rate = -(eps * a) * (a * b) * dot(sigma, sigma)  # -eps |dgH x dgS|^2 / b
+    return axpy((rate - dot(F, v)) / ww, w, F)
 
 
 @njit(inline="always")

@@ -10,11 +10,13 @@ nonzero) and evaluate only what is switched on: with the Hamiltonian part off
 The model arrives as ``layout.Model`` (first-class functions and params).
 """
 
+import math
+
 import numpy as np
 from numba import njit
 
 from .layout import FN_GRAD_H, FN_GRAD_S, FN_H, FN_POISSON, FN_S, UNKNOWN
-from .vec3 import ZERO, as_vector, axpy, cross, is_finite, load, norm_inf
+from .vec3 import ZERO, as_vector, axpy, cross, is_finite, load, norm_inf, scale
 
 #: gradients with largest components in [SAFE_LOW, SAFE_HIGH] give a triple product
 #: (at most 2^600 or at least 2^-600) that neither overflows nor underflows.
@@ -27,19 +29,25 @@ def dissipative(grad_h, grad_s, eps, base):
     """``base + eps * grad_h x (grad_h x grad_s)``.
 
     Outside ``[SAFE_LOW, SAFE_HIGH]`` (states of size 1e-150 or 1e100) it is
-    evaluated as ``((eps a) (a b)) u x (u x v)`` with ``a, b`` the largest
-    components of grad_h, grad_s and ``u, v`` the scaled vectors, so the triple
-    product neither underflows nor overflows where the result does not.
+    evaluated as ``(eps 2^(2i+j)) u x (u x v)`` with ``u = 2^-i grad_h``,
+    ``v = 2^-j grad_s`` (``2^i``, ``2^j`` the binary orders of their largest
+    components), so the triple product neither underflows nor overflows where
+    the result does not.  Scaling by powers of two is exact: both branches give
+    the same bits wherever both can be evaluated, so a run and the same run
+    scaled by a power of two stay bitwise alike.
     """
     a = norm_inf(grad_h)
     b = norm_inf(grad_s)
-    if SAFE_LOW <= a <= SAFE_HIGH and SAFE_LOW <= b <= SAFE_HIGH:
+    if (SAFE_LOW <= a <= SAFE_HIGH and SAFE_LOW <= b <= SAFE_HIGH) or a == 0.0 or b == 0.0 or not (
+            np.isfinite(a) and np.isfinite(b)):
         return axpy(eps, cross(grad_h, cross(grad_h, grad_s)), base)
-    if a == 0.0 or b == 0.0 or not (np.isfinite(a) and np.isfinite(b)):
+    i = math.frexp(a)[1]
+    j = math.frexp(b)[1]
+    if i < -1000 or j < -1000:  # subnormal gradients: 2^-i would overflow
         return axpy(eps, cross(grad_h, cross(grad_h, grad_s)), base)
-    u = (grad_h[0] / a, grad_h[1] / a, grad_h[2] / a)
-    v = (grad_s[0] / b, grad_s[1] / b, grad_s[2] / b)
-    return axpy((eps * a) * (a * b), cross(u, cross(u, v)), base)
+    u = scale(math.ldexp(1.0, -i), grad_h)
+    v = scale(math.ldexp(1.0, -j), grad_s)
+    return axpy(math.ldexp(eps, 2 * i + j), cross(u, cross(u, v)), base)
 
 
 @njit(inline="always")

@@ -159,23 +159,28 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
     ``ACCEPT_S_ULPS`` (not below it for ``h < 0``, the backward sub-steps of a
     composition).  It is accepted when
 
-    * **converged**: the next correction is within 4 ulp of the increment
-      (of ``|dx|`` and of the terms of ``h F``: not of ``|x|``, so that a state
+    * **converged**: the correction is within 4 ulp of the increment (of
+      ``|dx|`` and of the terms of ``h F``: not of ``|x|``, so that a state
       resting near an equilibrium, where ``|dx| << |x|``, does not random-walk
-      by the solution error while un-corrected steps cannot pull it back).  A
-      converged root far from keeping H and S (``GUARD`` ulps) is a spurious
-      root, reached from a step far beyond the time scale: the attempt fails.
+      by the solution error), or
     * **contracting**: with the contraction rate ``theta`` measured from two
       corrections, ``theta / (1 - theta) |correction|`` bounds the distance from
-      the next iterate to the root (Hairer & Wanner, *Solving ODEs II*,
-      section IV.8); when it is within an ulp of the increment, the next iterate is formed and
-      accepted if exact (2 function values instead of a further discrete field).
+      the corrected iterate to the root (Hairer & Wanner, *Solving ODEs II*,
+      section IV.8) and is within an ulp of the increment;
+
+      then the correction is applied (never the start as it is: an
+      extrapolated start's error, below the threshold but of one sign, would
+      add up) and the corrected iterate is accepted if exact (2 function
+      values instead of a further discrete field).  A converged root far from
+      keeping H and S (``GUARD`` ulps) is a spurious root, reached from a step
+      far beyond the time scale: the attempt fails.
     * **at the floor**: a correction that no longer shrinks (half the best so
       far), is below 16 times the round-off floor (4 ulp of the increment plus
       ``|h|`` times the noise of the discrete-gradient quotients) or sqrt(eps)
       of the state: the iterate is accepted if exact.
-      The first time it happens without that, the Newton matrix becomes the
-      finite-difference Jacobian of the discrete residual itself.
+      Whenever the iteration stalls without that, the Newton matrix becomes the
+      finite-difference Jacobian of the discrete residual at the iterate (Newton's
+      method proper: the hard cases, far from the simplified matrix).
 
     Fails on divergence, on a spurious root, after ``max_iter`` iterations; a
     non-finite value is reported as such, naming the user function that gave it.
@@ -186,7 +191,6 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
     evaluations = 0
     best = np.inf
     previous = np.inf
-    refreshed = False
     error = 0.0
     first_theta = 0.0
     scales = (0.0, 0.0, 0.0)
@@ -203,38 +207,33 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
         correction = solve(m, sub(dx, scale(h, F)))
         error = norm_inf(correction)
         size = max(norm_inf(x_new), norm_inf(dx))
-        terms_h = term_scale(H_x, H_new, dg_h, size)
-        terms_s = term_scale(S_x, S_new, dg_s, size)
+        terms_h = term_scale(H_x, H_new, dg_h, x_new)
+        terms_s = term_scale(S_x, S_new, dg_s, x_new)
         # the round-off of the increment itself: of |dx| and of h F (terms |dgH| (|Jbar| + eps |dgH| |dgS|))
         resolution = EPS * (norm_inf(dx) + abs(h) * scales[1] * (scales[0] + eps * scales[1] * scales[2]))
         exact = _kept(H_x, H_new, terms_h, ACCEPT_ULPS, 0.0) and _kept(S_x, S_new, terms_s, ACCEPT_S_ULPS, direction)
         converged = error <= 4.0 * resolution
-        if converged and exact:
-            return OK, x_new, comp_new, H_new, S_new, iteration, evaluations, first_theta, UNKNOWN
         if converged and not (_kept(H_x, H_new, terms_h, GUARD, 0.0) and _kept(S_x, S_new, terms_s, GUARD, direction)):
             break  # a spurious root: the invariants the scheme guarantees are far off
         theta = error / previous
         if iteration == 2:
             first_theta = theta
-        if theta < 0.5 and theta / (1.0 - theta) * error <= resolution:
+        if converged or (theta < 0.5 and theta / (1.0 - theta) * error <= resolution):
             x_next, comp_next = advance(x, comp, sub(dx, correction))
             load(buf, x_next)
             H_next, S_next = model.H(buf, model.params), model.S(buf, model.params)
             evaluations += 1
             if _kept(H_x, H_next, terms_h, ACCEPT_ULPS, 0.0) and _kept(S_x, S_next, terms_s, ACCEPT_S_ULPS, direction):
-                return OK, x_next, comp_next, H_next, S_next, iteration, evaluations, theta, UNKNOWN
+                return OK, x_next, comp_next, H_next, S_next, iteration, evaluations, max(theta, first_theta), UNKNOWN
         stalled = converged or error >= 0.5 * best
         floor = 4.0 * resolution + 2.0 * abs(h) * noise
         if stalled and exact and (error <= 16.0 * floor or error <= SQRT_EPS * size):
             return OK, x_new, comp_new, H_new, S_new, iteration, evaluations, first_theta, UNKNOWN
         if not (error <= 1e3 * reach):
             break  # diverged
-        if stalled:
-            if refreshed:
-                break
+        if stalled:  # Newton's method proper from here: the Jacobian of the discrete residual at the iterate
             m = _residual_matrix(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h, x_new, scales)
             evaluations += 4
-            refreshed = True
         best = min(best, error)
         previous = error
         dx = sub(dx, correction)
