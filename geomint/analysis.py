@@ -158,8 +158,12 @@ class RestCycle:
 # -- geometric conditions at many points -------------------------------------------------
 @dataclass(frozen=True)
 class Conditions:
-    """Boolean arrays, shape ``(n,)``, of the geometric conditions of the propositions at ``n`` points."""
+    """Boolean arrays, shape ``(n,)``, of the geometric conditions of the propositions at ``n`` points.
 
+    ``atol`` is the absolute zero used for ``grad H``, ``grad S`` and ``J``.
+    """
+
+    atol: float
     regular: np.ndarray
     critical_H: np.ndarray
     critical_S: np.ndarray
@@ -175,7 +179,8 @@ def conditions(system, X, atol=None, rtol=_ZERO):
     A vector counts as zero when its norm is at most ``atol``; a product
     (``xi_P = grad H x J``, ``sigma = grad S x grad H``,
     ``xi_g = grad H x (grad H x grad S)``) when a factor is zero or its norm is
-    at most ``rtol`` times the product of its factors' norms.  ``xi`` is zero
+    at most ``rtol`` times the product of its factors' norms; ``parallel``
+    (``sigma = 0``) needs both gradients non-zero.  ``xi`` is zero
     when ``xi_P`` and ``eps xi_g`` are (they are orthogonal, Lemma 6).
 
     Parameters
@@ -214,8 +219,8 @@ def conditions(system, X, atol=None, rtol=_ZERO):
     xi_P_zero = small_H | small_J | (xi_P <= rtol * nh * nj)
     xi_g_zero = small_H | small_S | (xi_g <= rtol * nh * nh * ns)
     return Conditions(
-        regular=~small_J, critical_H=small_H, critical_S=small_S,
-        parallel=sigma <= rtol * nh * ns, xi_P_zero=xi_P_zero, xi_g_zero=xi_g_zero,
+        atol=float(atol), regular=~small_J, critical_H=small_H, critical_S=small_S,
+        parallel=~small_H & ~small_S & (sigma <= rtol * nh * ns), xi_P_zero=xi_P_zero, xi_g_zero=xi_g_zero,
         xi_zero=(xi_P_zero if system.hamiltonian else True) & (xi_g_zero | (system.eps == 0.0)),
     )
 
@@ -252,7 +257,9 @@ def gradient_zeros_explained(system, X, atol=None):
     """Prop. 11 at each row of ``X``: ``xi_g = 0`` iff ``grad S || grad H`` or a gradient vanishes.
 
     Compares the norm of the field ``system.xi_g`` itself (not the conditions'
-    cross products) against the geometric condition.
+    cross products) against the geometric condition: the field counts as zero
+    when ``|xi_g| <= 2 rtol |grad H|^2 |grad S| + |grad H|^2 atol + atol^2 |grad S|``
+    (what ``|xi_g| = |grad H|^2 |grad S| sin(angle)`` allows under the tolerances of ``conditions``).
 
     Examples
     --------
@@ -263,9 +270,10 @@ def gradient_zeros_explained(system, X, atol=None):
     """
     X = _points(X)
     c = conditions(system, X, atol)
-    scale = np.linalg.norm(np.atleast_2d(system.grad_H(X)), axis=1) ** 2 * np.linalg.norm(
-        np.atleast_2d(system.grad_S(X)), axis=1)
-    field_zero = np.linalg.norm(np.atleast_2d(system.xi_g(X)), axis=1) <= 2 * _ZERO * scale
+    nh2 = np.linalg.norm(np.atleast_2d(system.grad_H(X)), axis=1) ** 2
+    ns = np.linalg.norm(np.atleast_2d(system.grad_S(X)), axis=1)
+    bound = 2 * _ZERO * nh2 * ns + nh2 * c.atol + c.atol ** 2 * ns
+    field_zero = np.linalg.norm(np.atleast_2d(system.xi_g(X)), axis=1) <= bound
     geometric = c.parallel | c.critical_H | c.critical_S
     return field_zero == geometric
 
@@ -594,8 +602,9 @@ class _Corrector:
         """The nearest point with ``|Z| <= 1e-9 z_scale`` and ``H = H0``, or None."""
         from scipy import optimize
 
-        x = optimize.least_squares(lambda x: self.residual(x, plane), x0, jac=lambda x: self.jacobian(x, plane),
-                                   xtol=1e-15, ftol=1e-15, gtol=1e-15).x
+        with np.errstate(divide="ignore", invalid="ignore"):  # trf divides by a zero step norm once converged
+            x = optimize.least_squares(lambda x: self.residual(x, plane), x0, jac=lambda x: self.jacobian(x, plane),
+                                       xtol=1e-15, ftol=1e-15, gtol=1e-15).x
         ok = np.linalg.norm(self.Z(x[None])[0]) <= _ZERO * self.z_scale
         ok &= abs(self.system.H(x) - self.H0) <= 1e-12 * self.h_scale
         return x if ok else None
