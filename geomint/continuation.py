@@ -67,7 +67,8 @@ class Branch:
     eps : ndarray, shape (k,)
     eigenvalues : ndarray, shape (k, 2), complex
         Tangent-plane eigenvalues; for a curve ``(0, normal eigenvalue)`` at its
-        first point; for a cycle ``(Floquet exponent, 0)``.
+        first point; for a cycle ``(0, Floquet exponent)``:
+        the last column is the informative one.
     verdicts, kinds : ndarray of str, shape (k,)
         Kinds are those of ``analysis.eigenvalue_kind`` (``"cycle"`` for cycles).
     displacement : float
@@ -171,7 +172,7 @@ def _follow_curve(system, H0, curve, eps_values):
 def _follow_cycle(system, cycle, eps_values):
     def state(eps, x):
         c = _analysis.classify_cycle(system.with_effects(eps=eps), cycle.points, cycle.closed)
-        return x, np.array([c.exponent, 0.0], dtype=complex), (c.verdict, "cycle")
+        return x, np.array([0.0, c.exponent], dtype=complex), (c.verdict, "cycle")
 
     return _follow("cycle", cycle.points[0], f"dS = 0 cycle through {_point(cycle.points[0])}", eps_values, state)
 

@@ -161,7 +161,9 @@ def continuation_figure(results, path=None, columns=3):
                 if not change.at_zero:
                     ax.axvline(change.eps, color=color, linewidth=0.8, alpha=0.6)
         ax.axhline(0.0, color="black", linewidth=0.6)
-        ax.set_xscale("symlog", linthresh=float(np.min(result.branches[0].eps[result.branches[0].eps > 0])))
+        eps = result.branches[0].eps
+        ax.set_xscale("symlog", linthresh=float(np.min(eps[eps > 0])))
+        ax.set_xlim(0.0, float(eps.max()))
         ax.set_xlabel("eps")
         ax.set_ylabel("Re(eigenvalue)")
         ax.set_title(f"{result.name}, H0 = {result.H0:g}", fontsize=9)

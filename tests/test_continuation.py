@@ -49,7 +49,7 @@ def test_degenerate_example_1_verdicts_are_fixed_as_soon_as_eps_is_positive():
 def test_oscillator_equator_cycle_exponent_is_linear_in_eps():
     result = continuation(geomint.systems.dissipative_oscillator((0.0, 0.0, 1.0)), 0.5, EPS_VALUES, n=600)
     [cycle] = [b for b in result.branches if b.object == "cycle"]
-    np.testing.assert_allclose(cycle.eigenvalues[:, 0].real, -2.0 * np.array(EPS_VALUES), rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(cycle.eigenvalues[:, 1].real, -2.0 * np.array(EPS_VALUES), rtol=1e-6, atol=1e-9)
     assert cycle.verdicts.tolist() == ["neutral"] + ["stable"] * 4
     assert len(result.rows()) == 3
 
