@@ -4,6 +4,7 @@ import doctest
 import importlib
 import importlib.util
 import pkgutil
+import runpy
 from pathlib import Path
 
 import pytest
@@ -51,3 +52,18 @@ def test_docstring_examples_run(name):
     module = importlib.import_module(name)
     result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE, verbose=False)
     assert result.failed == 0, f"{result.failed} of {result.attempted} docstring examples failed in {name}"
+
+
+RUNNABLE_PAGES = ["getting-started.md", "coming-from-scipy.md", "guides/own-system.md", "guides/analysis.md"]
+
+
+@pytest.mark.parametrize("page", RUNNABLE_PAGES)
+def test_python_examples_on_the_page_run(page, tmp_path, monkeypatch):
+    """The page's ```python blocks, run in order as one script (as a reader would paste them)."""
+    text = (ROOT / "docs" / page).read_text()
+    blocks = [block.split("```", 1)[0] for block in text.split("```python\n")[1:]]
+    assert blocks, f"{page} has no python example"
+    script = tmp_path / "example.py"  # a real file: numba's cache=True needs one, and writes beside it
+    script.write_text("\n".join(blocks))
+    monkeypatch.chdir(tmp_path)
+    runpy.run_path(str(script), run_name="__docs_example__")
