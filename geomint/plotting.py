@@ -144,6 +144,15 @@ def continuation_figure(results, path=None, columns=3):
     results : sequence of geomint.continuation.Continuation
     path : str or Path, optional
     columns : int
+
+    Examples
+    --------
+    >>> import geomint
+    >>> from geomint.continuation import continuation
+    >>> body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5)
+    >>> fig = continuation_figure([continuation(body, 0.75, [0.0, 0.1, 1.0, 4.0], n=400)])
+    >>> len(fig.axes[0].get_lines())   # 6 equilibria x 2 eigenvalues, zero line, 4 focus-node changes
+    17
     """
     plt = _pyplot()
     results = list(results)
