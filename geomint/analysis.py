@@ -444,7 +444,9 @@ def equilibria(system, H0, field="xi", center=None, n=4000):
     ``(F(x), H(x) - H0) = 0`` and kept when ``|F| <= 1e-9 max |F|``.  Where the
     zero set is a curve (the matrix ``[DF; grad H]`` has a null vector and a
     predictor-corrector step along it stays on the zero set) the curve is
-    traced and returned once, as an ``EquilibriumCurve``.
+    traced (``2 pi r / 96`` per step, ``r`` the largest distance of the level
+    set from ``center``) and returned once, as an ``EquilibriumCurve``; an
+    isolated equilibrium closer than one such step to a curve is not separated from it.
 
     Parameters
     ----------
@@ -566,7 +568,7 @@ def _zero_set(system, H0, Z, center, n):
     candidates = points[(size <= size[neighbours].min(axis=1)) & (size < 0.2 * scale)]
     found = []
     for x0 in candidates[np.argsort(np.linalg.norm(Z(candidates), axis=1))]:
-        if any(kind == "curve" for kind, _ in found) and _near(found, x0, 0.0, 2.0 * solver.ds):
+        if _near(found, x0, 0.0, 0.5 * solver.ds):
             continue  # a sample point beside a traced curve: it would refine onto the curve
         x = solver.correct(x0)
         if x is None or _near(found, x, 1e-3 * radius, solver.ds):
