@@ -67,12 +67,29 @@ repelling cycle; on r = 1.2 the poles are unstable and two attracting cycles at 
 appeared between them — they are born from the poles as r passes 1, where the rest leaves z = +-1 first touch the
 level set (a degenerate Hopf bifurcation in the level-set parameter; eps only scales the rates).
 
+**Why, in general.** The closed forms above are one instance of a factorisation that holds at every regular
+equilibrium with grad S = lam grad H != 0, in any system of this form (`geomint.analysis.factorise`, tested on the
+rigid bodies, the quartic and coupled bodies and the oscillator). Write J = mu grad S (S is a Casimir) and
+L = Hess S - lam Hess H, the Hessian of the Lagrangian of S on H = H0. Where grad H x grad S = 0, linearising
+xi_P = mu grad H x grad S and xi_g = grad H x (grad H x grad S) gives, on the tangent plane,
+
+    J_T(eps) = (mu C_T - eps |grad H|^2 I) L_T,
+
+with C_T = [grad H x] restricted to the tangent plane (|grad H| times a rotation by a right angle) and L_T the
+restricted Lagrangian Hessian. Hence det J_T = |grad H|^2 (mu^2 + eps^2 |grad H|^2) det L_T and
+tr J_T = -eps |grad H|^2 tr L_T: the sign of the determinant never depends on eps and the trace is eps times a fixed
+number. At eps = 0 a constrained extremum of S is a centre and a constrained saddle a saddle; for every eps > 0 a
+minimum of S on H = H0 is stable, a maximum unstable, a saddle a saddle. Foci turn into nodes at
+eps* = 2 |mu| sqrt(l1 l2) / (|grad H| |l1 - l2|) (l1, l2 the eigenvalues of L_T), which is the rigid body's eps*.
+
 **Answer to the paper's remark, for these systems:** the family dx/dt = xi_P + eps xi_g has no bifurcation of
 equilibria at any eps > 0; the only change of stability happens at eps = 0, where the neutral Hamiltonian centres
-(and the degenerate equilibria of the non-regular examples) acquire the sign fixed by the geometry of S on the level
-set (Prop. 11: the dissipative part is the gradient flow of S restricted to H = H0). Bifurcations in eps would need
-a system whose tangent-plane trace changes sign with eps, e.g. an eps-dependent S or H, which the construction
-excludes: eps enters linearly and multiplies a negative semi-definite operator.
+(and the degenerate equilibria of the non-regular examples) acquire the stability of the critical point of S on the
+level set (Prop. 11 to second order: the dissipative part is the gradient flow of S restricted to H = H0, and it
+commutes in the above sense with the Hamiltonian rotation). By the factorisation the same holds at every
+non-degenerate regular equilibrium with grad S || grad H of any system built this way; bifurcations can only come
+from degenerate points (det L_T = 0, as the double well at r = 1, where they happen in H0), from equilibria with
+dS = 0 or at non-regular points, or from an eps-dependent H or S, which the construction excludes.
 """
 
 

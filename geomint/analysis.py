@@ -360,6 +360,99 @@ def linearise(system, x, field="xi", step=None):
 
 
 
+@dataclass(frozen=True)
+class Factorisation:
+    """The tangent-plane Jacobian of ``xi`` at a regular equilibrium with ``grad S = lam grad H != 0``.
+
+    With ``J = mu grad S`` (S is a Casimir) and ``L = Hess S - lam Hess H``
+    (the Hessian of the Lagrangian of S restricted to ``H = H0``), linearising
+    ``xi_P = mu grad H x grad S`` and ``xi_g = grad H x (grad H x grad S)`` where
+    ``grad H x grad S = 0`` gives, in an orthonormal tangent basis ``T``,
+
+        J_T(eps) = (mu C_T - eps |grad H|^2 I) L_T,   C_T = T [grad H x] T^T,   L_T = T L T^T.
+
+    ``C_T`` is ``|grad H|`` times a rotation by a right angle, so
+    ``det J_T = |grad H|^2 (mu^2 + eps^2 |grad H|^2) det L_T`` and
+    ``tr J_T = -eps |grad H|^2 tr L_T``: for every ``eps > 0`` the verdict is that
+    of the critical point of ``S`` on the level set (minimum: stable; maximum:
+    unstable; saddle: saddle), whatever eps — no eigenvalue crosses the imaginary
+    axis at ``eps > 0``.  Where ``det L_T > 0`` the foci become nodes at
+
+        eps* = 2 |mu| sqrt(det L_T) / (|grad H| |l1 - l2|),   l1, l2 the eigenvalues of L_T.
+
+    Attributes
+    ----------
+    lam, mu : float
+    grad_H_norm : float
+    hessian : ndarray, shape (2, 2)
+        ``L_T`` (symmetric).
+    rotation : ndarray, shape (2, 2)
+        ``C_T`` (skew).
+    """
+
+    lam: float
+    mu: float
+    grad_H_norm: float
+    hessian: np.ndarray
+    rotation: np.ndarray
+
+    def jacobian(self, eps):
+        """``J_T(eps)``, shape (2, 2)."""
+        return (self.mu * self.rotation - eps * self.grad_H_norm ** 2 * np.eye(2)) @ self.hessian
+
+    @property
+    def constrained_type(self):
+        """``"minimum"``, ``"maximum"``, ``"saddle"`` or ``"degenerate"``: the critical point of S on ``H = H0``."""
+        low, high = np.linalg.eigvalsh(self.hessian)
+        tol = 1e-7 * (abs(low) + abs(high))
+        if low > tol:
+            return "minimum"
+        if high < -tol:
+            return "maximum"
+        return "saddle" if low < -tol and high > tol else "degenerate"
+
+    @property
+    def node_eps(self):
+        """``eps*`` where foci become nodes (``nan`` unless ``S`` has a strict extremum with ``l1 != l2``)."""
+        l1, l2 = np.linalg.eigvalsh(self.hessian)
+        if l1 * l2 <= 0.0 or l1 == l2:
+            return float("nan")
+        return float(2.0 * abs(self.mu) * np.sqrt(l1 * l2) / (self.grad_H_norm * abs(l1 - l2)))
+
+
+def factorise(system, x, step=None):
+    """The ``Factorisation`` of the tangent-plane Jacobian at a regular equilibrium ``x`` with ``grad S || grad H``.
+
+    Hessians by central differences of the gradients (step ``1e-6 (1 + |x|)``
+    by default).  Raises ``ValueError`` where ``grad H``, ``grad S`` or ``J``
+    vanishes (the factorisation needs all three).
+
+    Examples
+    --------
+    >>> import numpy as np, geomint
+    >>> body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=2.0)
+    >>> f = factorise(body, [0.0, 0.0, 1.0])
+    >>> f.constrained_type, round(f.node_eps, 5)      # S = |m|^2/2 has its minimum on H = 0.75 at the pole
+    ('minimum', 1.88562)
+    >>> bool(np.allclose(f.jacobian(2.0), linearise(body, [0.0, 0.0, 1.0])[0], atol=1e-8))
+    True
+    """
+    x = _points(x)[0]
+    gh, gs, j = (np.asarray(f(x), dtype=float) for f in (system.grad_H, system.grad_S, system.J))
+    for name, v in (("grad H", gh), ("grad S", gs), ("J", j)):
+        if not np.linalg.norm(v) > 0.0:
+            raise ValueError(f"`x` must be a regular point with grad H != 0 and grad S != 0; {name} = 0 at {x.tolist()}.")
+    step = 1e-6 * (1.0 + float(np.linalg.norm(x))) if step is None else float(step)
+    shifts = np.concatenate([x + step * np.eye(3), x - step * np.eye(3)])
+    hess_H, hess_S = (((v[:3] - v[3:]) / (2.0 * step)).T for v in (np.atleast_2d(system.grad_H(shifts)),
+                                                                    np.atleast_2d(system.grad_S(shifts))))
+    lam, mu = float(gs @ gh / (gh @ gh)), float(j @ gs / (gs @ gs))
+    T = tangent_basis(system, x)
+    cross = np.array([[0.0, -gh[2], gh[1]], [gh[2], 0.0, -gh[0]], [-gh[1], gh[0], 0.0]])
+    L = hess_S - lam * hess_H
+    return Factorisation(lam, mu, float(np.linalg.norm(gh)), T @ (0.5 * (L + L.T)) @ T.T, T @ cross @ T.T)
+
+
 def verdict(eigenvalues, scale, rtol=1e-7):
     """``"stable"`` if every real part is below ``-rtol scale``, ``"unstable"`` if one is above, else ``"neutral"``.
 

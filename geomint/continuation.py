@@ -10,7 +10,9 @@ with the parameter eps of ``dx/dt = xi_P + eps xi_g``.  Two facts frame the answ
   point at every eps anyway and records how far it moved.
 * At ``eps = 0`` the regular equilibria are those of the Hamiltonian system
   (centres and saddles on the level set); a verdict can change at ``eps = 0+``,
-  and at any ``eps > 0`` where an eigenvalue crosses the imaginary axis.
+  and at any ``eps > 0`` where an eigenvalue crosses the imaginary axis — which
+  ``analysis.factorise`` shows cannot happen at a non-degenerate regular
+  equilibrium with ``grad S || grad H``; this module finds what happens elsewhere.
 
 ``continuation`` finds the equilibria at the largest eps, follows them over
 the given eps values and locates every change of verdict (stable / unstable /

@@ -306,6 +306,7 @@ def test_explain_names_the_reasons():
     (lambda s: analysis.tangent_basis(s, [0.0, 0.0, 0.0]), r"`x` must not be a critical point of H"),
     (lambda s: analysis.refine(s, [0.6, 0.0, 0.8], -1.0), r"`x0` must lie near a zero of xi on H = -1.0"),
     (lambda s: analysis.conditions(s, [0.0, 0.0, 1.0], rtol=2.0), r"`rtol` must be a number in \[0, 1\); got 2.0"),
+    (lambda s: analysis.factorise(s, [0.0, 0.0, 0.0]), r"`x` must be a regular point with grad H != 0"),
 ])
 def test_bad_input_is_refused_with_the_rule(call, message):
     with pytest.raises(ValueError, match=message):
@@ -315,3 +316,21 @@ def test_bad_input_is_refused_with_the_rule(call, message):
 def test_bad_H0_type_is_refused():
     with pytest.raises(TypeError, match=r"`H0` must be a real number; got 'a'"):
         analysis.equilibria(geomint.systems.relaxing_rigid_body(), "a")
+
+
+# -- the factorisation behind "no bifurcation at eps > 0" ----------------------------------------
+@pytest.mark.parametrize("name, H0", [("quartic_rigid_body", 2.0), ("coupled_rigid_body", 1.2),
+                                      ("relaxing_rigid_body", 0.75), ("dissipative_oscillator", 0.5)])
+def test_tangent_jacobian_factorises_and_S_on_the_level_set_decides_stability(name, H0):
+    system = ZOO[name]
+    expected = {"minimum": "stable", "maximum": "unstable", "saddle": "unstable"}
+    found = [f for f in analysis.equilibria(system, H0, n=600) if f.regular and f.reasons == ("grad S || grad H",)]
+    assert len(found) >= 2
+    for f in found:
+        factors = analysis.factorise(system, f.x)
+        for eps in (0.0, 0.03, 1.0, 30.0):
+            jacobian = analysis.linearise(system.with_effects(eps=eps), f.x)[0]
+            np.testing.assert_allclose(factors.jacobian(eps), jacobian, atol=1e-7 * np.abs(jacobian).max())
+            if eps > 0:
+                lam = np.linalg.eigvals(jacobian)
+                assert analysis.verdict(lam, np.linalg.norm(jacobian)) == expected[factors.constrained_type]
