@@ -3,7 +3,7 @@
 geomint's Gonzalez step has no tolerance to loosen (Newton runs to round-off),
 so a loose solve is *emulated*: ``compiled.fixed_point_gonzalez`` iterates the
 same discrete field by fixed-point iteration until the update is below a
-tolerance tau.  The energy error then follows tau one-for-one (REFERENCES.md,
+tolerance tau.  The energy error then follows tau one-for-one (docs/references.md,
 "Lessons"), and S may rise, while ``geomint.solve`` stays at round-off.
 """
 

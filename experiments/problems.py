@@ -18,7 +18,7 @@ import numpy as np
 import geomint
 from geomint import systems
 
-#: REFERENCES.md R1/R2: m0 = (cos 1.1, 0, sin 1.1); R5: x0 = (0.6, 0, 0.8)
+#: docs/references.md R1/R2: m0 = (cos 1.1, 0, sin 1.1); R5: x0 = (0.6, 0, 0.8)
 RIGID_BODY_X0 = np.array([np.cos(1.1), 0.0, np.sin(1.1)])
 OSCILLATOR_X0 = np.array([0.6, 0.0, 0.8])
 INERTIA = (0.5, 1.0, 1.5)
@@ -51,7 +51,7 @@ def oscillator_exact(x0, coefficient, eps, t):
 
         z(t)^2 = z0^2 e^{-2 k r^2 t} / (1 - (z0^2 / r^2)(1 - e^{-2 k r^2 t})),
 
-    (for c = 1/2, eps = 1 this is REFERENCES.md R5), and the (x, y) part turns
+    (for c = 1/2, eps = 1 this is docs/references.md R5), and the (x, y) part turns
     clockwise at unit rate with radius rho(t): ``(x, y) = rho(t) (cos(theta0 - t),
     sin(theta0 - t))``.  ``t`` may be an array; returns shape ``t.shape + (3,)``.
     """
@@ -71,7 +71,7 @@ def free_rigid_body_exact(x0, coefficients, t):
     """Exact free rigid body (eps = 0) by Jacobi elliptic functions, for R1-like data.
 
     Celledoni, Fasso, Safstrom, Zanna, SIAM J. Sci. Comput. 30 (2008) 2084,
-    doi:10.1137/070704393 (REFERENCES.md R1).  Inertias ``I = 1/coefficients``
+    doi:10.1137/070704393 (docs/references.md R1).  Inertias ``I = 1/coefficients``
     with ``I_0 > I_1 > I_2``, energy ``E2 = 2H``, ``M^2 = |m|^2 < E2 I_1`` (so
     A1 = I_0, A3 = I_2) and ``x0 = (alpha, 0, gamma)``, alpha, gamma > 0 (the
     elliptic phase starts at 0).  With ``u = omega t``:
@@ -121,14 +121,14 @@ def rigid_body_attractor(system, x0):
 
 
 def free_rigid_body():
-    """REFERENCES.md R1: the free rigid body (eps = 0)."""
+    """docs/references.md R1: the free rigid body (eps = 0)."""
     system = systems.relaxing_rigid_body(*INERTIA, eps=0.0)
     return Problem("free_rigid_body", "free rigid body (R1, eps = 0)", system, RIGID_BODY_X0,
                    exact=lambda t: free_rigid_body_exact(RIGID_BODY_X0, INERTIA, t))
 
 
 def relaxing_rigid_body(eps):
-    """REFERENCES.md R2 with the given eps."""
+    """docs/references.md R2 with the given eps."""
     system = systems.relaxing_rigid_body(*INERTIA, eps=eps)
     return Problem(
         "relaxing_rigid_body", f"relaxing rigid body (R2, eps = {eps:g})", system, RIGID_BODY_X0,
@@ -146,7 +146,7 @@ def quartic_rigid_body(eps):
 
 
 def oscillator(eps, coefficient=1.0):
-    """REFERENCES.md R5 with ``S = coefficient * z^2``; the attractor is the equator, tracked by the exact solution."""
+    """docs/references.md R5 with ``S = coefficient * z^2``; the attractor is the equator, tracked by the exact solution."""
     system = systems.dissipative_oscillator((0.0, 0.0, coefficient), eps=eps)
     return Problem(
         "dissipative_oscillator", f"dissipative oscillator (S = z^2, eps = {eps:g})", system, OSCILLATOR_X0,

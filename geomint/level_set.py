@@ -1,4 +1,4 @@
-"""Points on, meshes of, and equilibria on a level set ``{H = H0}`` of the energy.
+"""Points on and meshes of a level set ``{H = H0}`` of the energy (equilibria: ``geomint.analysis``).
 
 The level set is assumed star-shaped about a centre ``c`` with ``H(c) < H0``
 (every catalogue system: ellipsoids and spheres about the minimiser of H).  A
@@ -111,48 +111,18 @@ def section(system, H0, center, plane, n_theta=181, n_phi=361):
 
 
 def equilibria(system, H0, center, n=4000):
-    """Equilibria of the field on ``H = H0`` with their stability: ``[(x, kind), ...]``.
+    """``[(x, verdict), ...]`` on ``H = H0``: the points of ``geomint.analysis.equilibria`` with their verdicts.
 
-    Candidates are the local minima of ``|xi|`` (over each point's 8 nearest
-    neighbours) of an ``n``-point Fibonacci sample with ``|xi| < 0.2 max |xi|``; each is refined by least squares on
-    ``(xi(x), H(x) - H0) = 0`` and kept when ``|xi| <= 1e-9 max |xi|``.  ``kind``
-    comes from the linearisation restricted to the tangent plane ``grad H^perp``
-    (central differences): ``"stable"`` when both eigenvalues have real part
-    below ``-tol``, ``"unstable"`` when one is above ``tol``, else ``"neutral"``
-    (centres, and the zero direction along a curve of equilibria), with
-    ``tol = 1e-5 * |Df|``.  A curve of equilibria comes back as points along it.
+    A curve of equilibria contributes each of its traced points.  Kept for
+    callers of the earlier interface; new code uses ``geomint.analysis``, which
+    also says why each point is an equilibrium.
     """
-    from scipy import optimize, spatial  # imported on use: they cost a new process ~0.3 s
+    from . import analysis  # analysis builds on this module
 
-    points = on_rays(system, H0, fibonacci_directions(n), center)
-    speed = np.linalg.norm(system.xi(points), axis=1)
-    scale = float(speed.max())
-    if scale == 0.0:
-        return []
-    found = []
-    radius = float(np.max(np.linalg.norm(points - center, axis=1)))
-    _, neighbours = spatial.cKDTree(points).query(points, k=9)
-    candidates = (speed <= speed[neighbours].min(axis=1)) & (speed < 0.2 * scale)
-    for x0 in points[candidates]:
-        x = optimize.least_squares(
-            lambda x: np.append(system.xi(x), system.H(x) - H0), x0, xtol=1e-15, ftol=1e-15, gtol=1e-15
-        ).x
-        if np.linalg.norm(system.xi(x)) > 1e-9 * scale:
-            continue
-        if any(np.linalg.norm(x - y) < 1e-3 * radius for y, _ in found):
-            continue
-        found.append((x, _stability(system, x, radius)))
-    return found
-
-
-def _stability(system, x, radius):
-    step = 1e-6 * radius
-    Df = np.stack([(system.xi(x + step * e) - system.xi(x - step * e)) / (2.0 * step) for e in np.eye(3)], axis=1)
-    normal = np.asarray(system.grad_H(x), dtype=float)
-    normal = normal / np.linalg.norm(normal)
-    tangent = np.linalg.svd(np.eye(3) - np.outer(normal, normal))[0][:, :2]
-    real = np.linalg.eigvals(tangent.T @ Df @ tangent).real
-    tol = 1e-5 * (np.linalg.norm(Df) + 1e-300)
-    if np.all(real < -tol):
-        return "stable"
-    return "unstable" if np.any(real > tol) else "neutral"
+    pairs = []
+    for found in analysis.equilibria(system, H0, "xi", center, n):
+        if isinstance(found, analysis.EquilibriumCurve):
+            pairs.extend(zip(found.points, found.verdicts.tolist()))
+        else:
+            pairs.append((found.x, found.verdict))
+    return pairs

@@ -4,8 +4,10 @@
 (``geomint.scene.FIGURES``) as ``<name>.<figure>.png``.  The 3-D panel shows
 the level surface ``H = H0`` of each distinct initial energy (at most three),
 the trajectories on it (start marked), and the equilibria of the simulated
-field on it, found and classified by ``geomint.level_set.equilibria``:
-filled = stable, open = unstable, grey = neutral.
+field on it, found and classified by ``geomint.analysis.equilibria``:
+filled = stable, open = unstable, grey = neutral; a curve of equilibria is drawn
+as a line.  ``continuation_figure`` plots the eigenvalue real parts of a
+``geomint.continuation.continuation`` against eps.
 """
 
 from pathlib import Path
@@ -93,11 +95,7 @@ def trajectories(result, ax):
                         label="plane section" if plane == result.scene.sections[0] else None)
         ax.plot_surface(X, Y, Z, color="steelblue", alpha=0.12, linewidth=0.2, edgecolor="lightsteelblue",
                         shade=False, rstride=2, cstride=2)
-        marked = set()
-        for x, kind in _level_set.equilibria(system, H0, center):
-            label = f"{kind} equilibrium" if kind not in marked else None
-            marked.add(kind)
-            ax.scatter(*x, depthshade=False, zorder=5, label=label, **_EQUILIBRIUM_STYLE[kind])
+        _equilibria(ax, system, H0, center)
     colors = _colors(len(result.solutions))
     for i, sol in enumerate(result.solutions):
         ax.plot(sol.x[:, 0], sol.x[:, 1], sol.x[:, 2], color=colors[i], linewidth=1.1)
@@ -113,6 +111,79 @@ def trajectories(result, ax):
     _equal_limits(ax, np.vstack(drawn))
     ax.legend(loc="upper left", fontsize=8)
     ax.set_title("trajectories on H = H0", fontsize=10)
+
+
+def _equilibria(ax, system, H0, center):
+    from . import analysis
+
+    marked = set()
+    for found in analysis.equilibria(system, H0, "xi", center):
+        kind, curve = found.verdict, isinstance(found, analysis.EquilibriumCurve)
+        label = f"{kind} equilibri{'a (curve)' if curve else 'um'}"
+        label = label if label not in marked else None
+        marked.add(label)
+        if curve:
+            points = np.vstack([found.points, found.points[:1]]) if found.closed else found.points
+            color = _EQUILIBRIUM_STYLE.get(kind, _EQUILIBRIUM_STYLE["neutral"])["edgecolor"]
+            ax.plot(*points.T, color=color, linewidth=2.4, zorder=5, label=label)
+        else:
+            ax.scatter(*found.x, depthshade=False, zorder=5, label=label, **_EQUILIBRIUM_STYLE[kind])
+
+
+def continuation_figure(results, path=None, columns=3):
+    """Eigenvalue real parts against eps, one panel per ``Continuation`` in ``results``.
+
+    For an isolated equilibrium both tangent-plane eigenvalues' real parts are
+    drawn (solid, dashed), for a curve of equilibria its normal eigenvalue, for
+    a rest cycle its Floquet exponent (dotted); a vertical line marks each
+    change of verdict or kind found at ``eps > 0``.  The eps axis is symmetric-log
+    so that ``eps = 0`` shows.  Returns the figure; writes it to ``path`` if given.
+
+    Parameters
+    ----------
+    results : sequence of geomint.continuation.Continuation
+    path : str or Path, optional
+    columns : int
+
+    Examples
+    --------
+    >>> import geomint
+    >>> from geomint.continuation import continuation
+    >>> body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5)
+    >>> fig = continuation_figure([continuation(body, 0.75, [0.0, 0.1, 1.0, 4.0], n=400)])
+    >>> len(fig.axes[0].get_lines())   # 6 equilibria x 2 eigenvalues, zero line, 4 focus-node changes
+    17
+    """
+    plt = _pyplot()
+    results = list(results)
+    rows = -(-len(results) // columns)
+    fig, axes = plt.subplots(rows, columns, figsize=(4.6 * columns, 3.6 * rows), squeeze=False)
+    for ax, result in zip(axes.ravel(), results):
+        colors = _colors(len(result.branches))
+        for color, branch in zip(colors, result.branches):
+            real = branch.eigenvalues.real
+            style = ":" if branch.object == "cycle" else "-"
+            ax.plot(branch.eps, real[:, -1], style, color=color, linewidth=1.4, label=branch.label)
+            if branch.object == "equilibrium":
+                ax.plot(branch.eps, real[:, 0], "--", color=color, linewidth=1.0)
+            for change in branch.changes:
+                if not change.at_zero:
+                    ax.axvline(change.eps, color=color, linewidth=0.8, alpha=0.6)
+        ax.axhline(0.0, color="black", linewidth=0.6)
+        eps = result.branches[0].eps
+        ax.set_xscale("symlog", linthresh=float(np.min(eps[eps > 0])))
+        ax.set_xlim(0.0, float(eps.max()))
+        ax.set_xlabel("eps")
+        ax.set_ylabel("Re(eigenvalue)")
+        ax.set_title(f"{result.name}, H0 = {result.H0:g}", fontsize=9)
+        ax.grid(True, linewidth=0.4, alpha=0.6)
+        ax.legend(fontsize=5.5, loc="best")
+    for ax in axes.ravel()[len(results):]:
+        ax.set_visible(False)
+    fig.tight_layout()
+    if path is not None:
+        fig.savefig(path, dpi=130)
+    return fig
 
 
 def invariants(result, ax_H, ax_S):

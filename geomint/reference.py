@@ -30,7 +30,7 @@ def rigid_body_exact(a, b, c, m0, t):
     --------
     >>> import numpy as np, geomint
     >>> m = geomint.reference.rigid_body_exact(0.5, 1.0, 1.5, [np.cos(1.1), 0.0, np.sin(1.1)], [0.0, 10.7314652348828])
-    >>> bool(np.allclose(m[0], m[1], atol=1e-12))  # one period (problem R1 of docs/references.md)
+    >>> bool(np.allclose(m[0], m[1], atol=1e-12))  # one period (docs/references.md R1)
     True
     """
     coefficients = []

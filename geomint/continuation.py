@@ -1,0 +1,225 @@
+"""Continuation in eps: each equilibrium, curve of equilibria and rest cycle followed as eps grows from 0.
+
+The paper's closing remark (D. Fish, *Dissipative perturbations of 3d
+Hamiltonian systems*, section 3) asks how the stability of equilibria changes
+with the parameter eps of ``dx/dt = xi_P + eps xi_g``.  Two facts frame the answer:
+
+* For ``eps > 0``, ``xi = 0`` iff ``xi_P = 0`` and ``xi_g = 0`` (Lemma 6: they are
+  orthogonal), a condition that does not involve eps: **the equilibria do not
+  move with eps**, only their eigenvalues do.  ``continuation`` re-solves each
+  point at every eps anyway and records how far it moved.
+* At ``eps = 0`` the regular equilibria are those of the Hamiltonian system
+  (centres and saddles on the level set); a verdict can change at ``eps = 0+``,
+  and at any ``eps > 0`` where an eigenvalue crosses the imaginary axis — which
+  ``analysis.factorise`` shows cannot happen at a non-degenerate regular
+  equilibrium with ``grad S || grad H``; this module finds what happens elsewhere.
+
+``continuation`` finds the equilibria at the largest eps, follows them over
+the given eps values and locates every change of verdict (stable / unstable /
+neutral) or of kind (node / focus / saddle / centre / degenerate) by bisection.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import analysis as _analysis
+
+_BISECTIONS = 48
+
+
+@dataclass(frozen=True)
+class Change:
+    """A change of ``(verdict, kind)`` between ``eps_low`` and ``eps_high`` (bisected to ``eps``).
+
+    ``at_zero``: the bracket started at ``eps = 0`` and bisection ended below
+    ``1e-3`` of its initial width, i.e. where the linearisation stops resolving
+    real parts (``analysis.verdict``): the change happens as soon as ``eps > 0``.
+    """
+
+    eps_low: float
+    eps_high: float
+    before: tuple
+    after: tuple
+
+    at_zero: bool = False
+
+    @property
+    def eps(self):
+        """Midpoint of the final bracket (0 for a change at ``eps = 0+``)."""
+        return 0.0 if self.at_zero else 0.5 * (self.eps_low + self.eps_high)
+
+    def __str__(self):
+        where = "eps = 0+" if self.at_zero else f"eps = {self.eps:.6g}"
+        return f"{'/'.join(self.before)} -> {'/'.join(self.after)} at {where}"
+
+
+@dataclass(frozen=True)
+class Branch:
+    """One equilibrium, curve of equilibria or rest cycle followed in eps.
+
+    Attributes
+    ----------
+    object : str
+        ``"equilibrium"``, ``"curve"`` or ``"cycle"``.
+    x : ndarray, shape (3,)
+        The point (for a curve or cycle, its first point) at the largest eps.
+    label : str
+        The reason (or ``"dS = 0 cycle"``) and the point, for tables and legends.
+    eps : ndarray, shape (k,)
+    eigenvalues : ndarray, shape (k, 2), complex
+        Tangent-plane eigenvalues; for a curve ``(0, normal eigenvalue)`` at its
+        first point; for a cycle ``(0, Floquet exponent)``:
+        the last column is the informative one.
+    verdicts, kinds : ndarray of str, shape (k,)
+        Kinds are those of ``analysis.eigenvalue_kind`` (``"cycle"`` for cycles).
+    displacement : float
+        Largest distance the point moved between eps values (0 for cycles).
+    changes : list of Change
+    """
+
+    object: str
+    x: np.ndarray
+    label: str
+    eps: np.ndarray
+    eigenvalues: np.ndarray
+    verdicts: np.ndarray
+    kinds: np.ndarray
+    displacement: float
+    changes: list = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Continuation:
+    """The branches of one system on one level set ``H = H0``."""
+
+    name: str
+    H0: float
+    branches: list
+
+    def rows(self):
+        """Table rows: label, verdict at the smallest and at the largest eps, and the changes found."""
+        rows = []
+        for b in self.branches:
+            changes = "; ".join(str(c) for c in b.changes) or "none"
+            rows.append([b.label, f"{b.verdicts[0]} {b.kinds[0]}", f"{b.verdicts[-1]} {b.kinds[-1]}", changes])
+        return rows
+
+
+def continuation(system, H0, eps_values, center=None, n=2000):
+    """Follow the equilibria and rest cycles of ``system`` on ``H = H0`` over ``eps_values``.
+
+    Parameters
+    ----------
+    system : MetriplecticSystem
+        Its own eps is ignored; ``system.with_effects(eps=e)`` is used for each ``e``.
+    H0 : float
+    eps_values : array_like, shape (k,)
+        Increasing values ``>= 0``, ``k >= 2``, the largest ``> 0``.
+    center, n
+        As in ``analysis.equilibria`` (where the search runs, at the largest eps).
+
+    Returns
+    -------
+    Continuation
+
+    Examples
+    --------
+    >>> import geomint
+    >>> body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5)
+    >>> result = continuation(body, 0.75, [0.0, 0.5, 4.0], n=1000)
+    >>> top = [b for b in result.branches if b.x[2] > 0.5][0]   # the pole on the axis of c
+    >>> top.verdicts.tolist(), top.kinds.tolist()
+    (['neutral', 'stable', 'stable'], ['centre', 'focus', 'node'])
+    >>> [str(c) for c in top.changes]   # eps* = 2 sqrt((c - a)(c - b)) / (c z0 |b - a|) = 1.88562
+    ['neutral/centre -> stable/focus at eps = 0+', 'stable/focus -> stable/node at eps = 1.88562']
+    """
+    eps_values = _check_eps_values(eps_values)
+    top = system.with_effects(eps=float(eps_values[-1]))
+    branches = [_follow_equilibrium(system, H0, e, eps_values) if isinstance(e, _analysis.Equilibrium)
+                else _follow_curve(system, H0, e, eps_values)
+                for e in _analysis.equilibria(top, H0, center=center, n=n)]
+    branches += [_follow_cycle(system, c, eps_values) for c in _analysis.rest_cycles(top, H0, center=center, n=n)
+                 if c.periodic]
+    return Continuation(system.name, float(H0), branches)
+
+
+def _state_of_point(system, H0, x, eps):
+    """``(x, sorted eigenvalues, (verdict, kind), Jacobian norm)`` of the equilibrium near ``x`` at ``eps``."""
+    s = system.with_effects(eps=eps)
+    x = _analysis.refine(s, x, H0)
+    jacobian, lam = _analysis.linearise(s, x)
+    scale = float(np.linalg.norm(jacobian)) + 1e-300
+    return x, np.sort_complex(lam), (_analysis.verdict(lam, scale), _analysis.eigenvalue_kind(lam, scale)), scale
+
+
+def _follow_equilibrium(system, H0, equilibrium, eps_values):
+    def state(eps, x):
+        return _state_of_point(system, H0, x, eps)[:3]
+
+    label = f"{', '.join(equilibrium.reasons) or 'P = 0'} at {_point(equilibrium.x)}"
+    return _follow("equilibrium", equilibrium.x, label, eps_values, state)
+
+
+def _follow_curve(system, H0, curve, eps_values):
+    def state(eps, x):
+        x, lam, _, scale = _state_of_point(system, H0, x, eps)
+        normal = lam[np.argmax(np.abs(lam))].real
+        return x, np.array([0.0, normal], dtype=complex), (_analysis.verdict([normal], scale), "curve")
+
+    label = f"curve of equilibria ({', '.join(curve.reasons) or 'P = 0'}) through {_point(curve.x)}"
+    return _follow("curve", curve.x, label, eps_values, state)
+
+
+def _follow_cycle(system, cycle, eps_values):
+    def state(eps, x):
+        c = _analysis.classify_cycle(system.with_effects(eps=eps), cycle.points, cycle.closed)
+        return x, np.array([0.0, c.exponent], dtype=complex), (c.verdict, "cycle")
+
+    return _follow("cycle", cycle.points[0], f"dS = 0 cycle through {_point(cycle.points[0])}", eps_values, state)
+
+
+def _follow(kind, x_top, label, eps_values, state):
+    """Evaluate ``state(eps, x) -> (x, eigenvalues, (verdict, kind))`` from the largest eps down; bisect changes."""
+    records, x = [], x_top
+    for eps in eps_values[::-1]:
+        record = state(float(eps), x)
+        records.append(record)
+        x = record[0]
+    records.reverse()
+    points = np.array([r[0] for r in records])
+    changes = [_bisect(state, float(eps_values[k]), float(eps_values[k + 1]), records[k][2], records[k + 1][2],
+                       points[k])
+               for k in range(len(eps_values) - 1) if records[k][2] != records[k + 1][2]]
+    return Branch(kind, x_top, label, np.asarray(eps_values), np.array([r[1] for r in records]),
+                  np.array([r[2][0] for r in records]), np.array([r[2][1] for r in records]),
+                  float(np.max(np.linalg.norm(points - x_top, axis=1))), changes)
+
+
+def _bisect(state, low, high, before, after, x):
+    from_zero, width = low == 0.0, high - low
+    for _ in range(_BISECTIONS):
+        middle = 0.5 * (low + high)
+        if middle in (low, high):
+            break
+        if state(middle, x)[2] == before:
+            low = middle
+        else:
+            high = middle
+    return Change(low, high, before, after, at_zero=from_zero and high < 1e-3 * width)
+
+
+def _point(x):
+    return "(" + ", ".join(f"{v:.3g}" for v in np.where(np.abs(x) < 1e-9, 0.0, x)) + ")"
+
+
+def _check_eps_values(eps_values):
+    try:
+        values = np.asarray(eps_values, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"`eps_values` must be a sequence of real numbers; got {eps_values!r}.") from None
+    if values.ndim != 1 or values.size < 2:
+        raise ValueError(f"`eps_values` must be a 1-D sequence of at least 2 values; got shape {values.shape}.")
+    if not (np.all(np.isfinite(values)) and values[0] >= 0.0 and np.all(np.diff(values) > 0) and values[-1] > 0.0):
+        raise ValueError(f"`eps_values` must be finite, increasing and >= 0; got {values.tolist()!r}.")
+    return values
