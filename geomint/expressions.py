@@ -39,6 +39,7 @@ Example
 import ast
 import hashlib
 import importlib.util
+import keyword
 import math
 import os
 import sys
@@ -164,22 +165,26 @@ class _Builder:
         return FUNCTIONS[node.func.id](self.build(node.args[0]))
 
 
-def check_parameters(params):
+def check_parameters(params, field="params"):
     """``{name: float}`` with names that are identifiers and not x, y, z, pi or a function name.
+
+    ``field`` names the argument in errors.
 
     >>> check_parameters({"a": 1})
     {'a': 1.0}
     """
     if not isinstance(params, dict):
-        raise ValueError(f"`params` must be a dict {{name: value}}; got {params!r} ({type(params).__name__}).")
+        raise ValueError(f"`{field}` must be a dict {{name: value}}; got {params!r} ({type(params).__name__}).")
     reserved = set(COORDINATES) | set(CONSTANTS) | set(FUNCTIONS)
     out = {}
     for name, value in params.items():
-        if not isinstance(name, str) or not name.isidentifier() or name.startswith("_") or name in reserved:
-            raise ValueError(f"`params` name {name!r} must be an identifier not starting with `_` and not one "
-                             f"of {sorted(reserved)}; rename it, e.g. `a`, `sigma`, `r2`.")
+        if not isinstance(name, str) or not name.isidentifier() or name.startswith("_") or name in reserved \
+                or keyword.iskeyword(name) or len(name) > 50:
+            raise ValueError(f"`{field}` name {name!r} must be an identifier of at most 50 characters, not starting "
+                             f"with `_`, not a Python keyword and not one of {sorted(reserved)}; rename it, e.g. `a`, "
+                             "`sigma`, `r2`.")
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise ValueError(f"`params[{name!r}]` must be a finite real number; got {value!r}.")
+            raise ValueError(f"`{field}.{name}` must be a finite real number; got {value!r}.")
         out[name] = float(value)
     return out
 
@@ -219,7 +224,7 @@ def _residual(expressions, values):
     return residual
 
 
-def check_structure(grad_S, J=None, P=None, values=None):
+def check_structure(grad_S, J=None, P=None, values=None, prefix=""):
     """Refuse a Poisson tensor that is not one, or an S that is not its Casimir.
 
     Checks symbolically (``sympy.simplify`` of each residual; an identity that
@@ -229,7 +234,8 @@ def check_structure(grad_S, J=None, P=None, values=None):
     - Jacobi ``J . curl J = 0``,
     - Casimir ``grad S x J = 0``.
 
-    Raises ``ValueError`` naming the identity and showing its residual.
+    Raises ``ValueError`` naming the identity and showing its residual;
+    ``prefix`` goes before the names in messages (``"system."`` in scenes).
 
     >>> x, y, z = sympy.symbols("x y z", real=True)
     >>> check_structure((0, 0, z), J=(x, y, 0))
@@ -241,16 +247,16 @@ def check_structure(grad_S, J=None, P=None, values=None):
     if P is not None:
         skew = _residual([P[i][j] + P[j][i] for i in range(3) for j in range(i, 3)], values)
         if any(r != 0 for r in skew):
-            raise ValueError(f"`P` is not skew: P + P^T = 0 fails; the residual (upper triangle, row by row) "
+            raise ValueError(f"`{prefix}P` is not skew: P + P^T = 0 fails; the residual (upper triangle, row by row) "
                              f"simplifies to {skew}. Write P with P[j][i] = -P[i][j] and a zero diagonal.")
         J = axial_of(P)
     jacobi = _residual([sum(a * b for a, b in zip(J, _curl(J)))], values)[0]
     if jacobi != 0:
-        raise ValueError(f"`J` fails Jacobi: J . curl J = 0 does not hold; the residual simplifies to {jacobi}. "
+        raise ValueError(f"`{prefix}J` fails Jacobi: J . curl J = 0 does not hold; the residual simplifies to {jacobi}. "
                          "A J parallel to a gradient, J = f grad C, always satisfies it.")
     casimir = _residual(_cross(grad_S, J), values)
     if any(r != 0 for r in casimir):
-        raise ValueError(f"`S` is not a Casimir of J: grad S x J = 0 fails; the residual simplifies to {casimir}. "
+        raise ValueError(f"`{prefix}S` is not a Casimir of J: grad S x J = 0 fails; the residual simplifies to {casimir}. "
                          "J must be parallel to grad S everywhere.")
 
 
@@ -354,7 +360,7 @@ def compile_functions(text):
     return module
 
 
-def build(H, S, J=None, P=None, params=None, eps=1.0, name="expressions"):
+def build(H, S, J=None, P=None, params=None, eps=1.0, name="expressions", prefix=""):
     """The keyword arguments of ``MetriplecticSystem`` for a system given as formulas.
 
     Parameters
@@ -370,29 +376,41 @@ def build(H, S, J=None, P=None, params=None, eps=1.0, name="expressions"):
         order, so one compilation serves every value.
     eps, name
         Passed on.
+    prefix : str
+        Goes before field names in errors (``"system."`` in scenes).
 
     Returns a dict for ``MetriplecticSystem(**kwargs)``.
     """
-    if (J is None) == (P is None):
-        raise ValueError("give exactly one of `J` (3 formulas, axial vector) and `P` (3x3 formulas, skew matrix).")
-    values = check_parameters({} if params is None else params)
-    names = list(values)
-    H_expr, S_expr = parse("H", H, names), parse("S", S, names)
-    if J is not None:
-        poisson = tuple(parse(f"J[{i}]", c, names) for i, c in enumerate(_triple("J", J)))
-        form, axial = "axial", None
-    else:
-        rows = _triple("P", P)
-        poisson = tuple(tuple(parse(f"P[{i}][{j}]", c, names) for j, c in enumerate(_triple(f"P[{i}]", row)))
-                        for i, row in enumerate(rows))
-        form, axial = "matrix", poisson
+    values = check_parameters({} if params is None else params, f"{prefix}parameters" if prefix else "params")
+    H_expr, S_expr, poisson = parse_system(H, S, J, P, list(values), prefix)
+    form = "axial" if J is not None else "matrix"
     grad_H, grad_S = gradient(H_expr), gradient(S_expr)
-    check_structure(grad_S, J=poisson if axial is None else None, P=axial, values=values)
-    module = compile_functions(source(H_expr, grad_H, S_expr, grad_S, poisson, form, names))
+    check_structure(grad_S, J=poisson if form == "axial" else None, P=poisson if form == "matrix" else None,
+                    values=values, prefix=prefix)
+    module = compile_functions(source(H_expr, grad_H, S_expr, grad_S, poisson, form, list(values)))
     kwargs = {"H": module.H, "grad_H": module.grad_H, "S": module.S, "grad_S": module.grad_S,
               "eps": eps, "params": list(values.values()), "name": name}
     kwargs["J" if form == "axial" else "P"] = module.J if form == "axial" else module.P
     return kwargs
+
+
+def parse_system(H, S, J, P, parameters, prefix=""):
+    """``(H, S, J or P)`` as sympy expressions (grammar only: no derivatives, no checks).
+
+    Exactly one of ``J`` (3 formulas) and ``P`` (3x3 formulas) is given;
+    errors name the field with ``prefix`` before it (``system.J[1]``).
+    """
+    if (J is None) == (P is None):
+        raise ValueError(f"give exactly one of `{prefix}J` (3 formulas, axial vector) and `{prefix}P` "
+                         "(3x3 formulas, skew matrix).")
+    H_expr, S_expr = parse(f"{prefix}H", H, parameters), parse(f"{prefix}S", S, parameters)
+    if J is not None:
+        return H_expr, S_expr, tuple(parse(f"{prefix}J[{i}]", c, parameters)
+                                     for i, c in enumerate(_triple(f"{prefix}J", J)))
+    rows = _triple(f"{prefix}P", P)
+    return H_expr, S_expr, tuple(
+        tuple(parse(f"{prefix}P[{i}][{j}]", c, parameters) for j, c in enumerate(_triple(f"{prefix}P[{i}]", row)))
+        for i, row in enumerate(rows))
 
 
 def _triple(field, value):

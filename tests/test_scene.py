@@ -15,11 +15,12 @@ BUNDLED = sorted(bundled_scenes())
 SHORT_STEPS = 60
 
 
-def test_every_paper_example_is_bundled():
+def test_every_paper_example_and_a_system_written_as_formulas_is_bundled():
     assert BUNDLED == sorted([
         "rigid_body_distinct", "rigid_body_equal", "oscillator_s0", "oscillator_z2",
-        "degenerate_example1", "degenerate_example2",
+        "degenerate_example1", "degenerate_example2", "lorenz_nevir",
     ])
+    assert "H" in load("lorenz_nevir").expressions
 
 
 @pytest.mark.parametrize("name", BUNDLED)
