@@ -68,6 +68,7 @@ from pathlib import Path
 import numpy as np
 
 from . import level_set as _level_set
+from . import diagnostics as _diagnostics
 from . import expressions as _expressions
 from .method_data import MethodDataError, method_from_data, method_to_data, short_names
 from .solve import solve, step_count
@@ -89,8 +90,7 @@ OBSERVABLES = {
     "x": ("state, (rows, 3)", lambda system, sol: sol.x),
     "H": ("energy", lambda system, sol: sol.H),
     "S": ("Casimir", lambda system, sol: sol.S),
-    "energy_error": ("|H - H0| / |H0| (absolute when H0 = 0)",
-                     lambda system, sol: np.abs(sol.H - sol.H[0]) / (abs(sol.H[0]) or 1.0)),
+    "energy_error": ("|H - H0| / |H0| (absolute when H0 = 0)", lambda system, sol: _diagnostics.energy_error(sol)),
     "sigma": ("sigma = grad S x grad H, (rows, 3)", lambda system, sol: system.sigma(sol.x)),
     "dS_dt": ("dS/dt = -eps |sigma|^2", lambda system, sol: system.dS_dt(sol.x)),
     "xi": ("the simulated field, (rows, 3)", lambda system, sol: system.xi(sol.x)),
