@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from geomint import plotting
 from geomint.diagnostics import Curve, cost_to_reach, work_precision
 
 from . import problems
@@ -109,17 +110,10 @@ def fastest_structure_preserving(curves, target=1e-8):
 
 
 def plot(problem, curves, uncertainty, axes):
-    for curve in curves:
-        style = "o-" if curve.kind == "geomint" else "s--"
-        axes[0].loglog(curve.wall, curve.error, style, ms=3, label=curve.label)
-        axes[1].loglog(curve.nfev, curve.error, style, ms=3, label=curve.label)
-    for ax, xlabel in zip(axes, ("wall time [s] (median, compiled)", "field evaluations")):
+    for ax, cost in zip(axes, ("wall", "nfev")):
+        plotting.work_precision(curves, ax, cost=cost, legend=ax is axes[0])
         ax.axhline(max(uncertainty, 1e-16), color="grey", lw=0.8, ls=":")
-        ax.set_xlabel(xlabel)
-        ax.set_ylabel("global error |x(T) - x_ref(T)|")
-        ax.set_title(problem.title, fontsize=9)
-        ax.grid(True, alpha=0.3)
-    axes[0].legend(fontsize=6)
+        ax.set_title(f"{problem.title} (solid: exact H and monotone S)", fontsize=9)
 
 
 def run_problem(problem, settings, methods, log=print):

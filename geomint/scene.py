@@ -101,6 +101,7 @@ FIGURES = {
     "overview": "trajectories on the level surface of H in 3-D, with H(t) and S(t) panels",
     "trajectories": "trajectories on the level surface of H in 3-D, equilibria marked",
     "invariants": "relative energy error and S against t",
+    "drift": "windowed maxima of the energy error against t (log-log) with the fitted growth law",
 }
 
 # section -> key in the file -> Scene field; "" is the top level
