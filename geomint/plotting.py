@@ -291,13 +291,9 @@ def energy_error(solutions, ax=None, *, labels=None, legend=True):
     worst = max(float(_diagnostics.energy_error(sol).max()) for sol in solutions)
     top = max(worst * 4, eps * 4)
     ax.set_ylim(_TINY / 1.5, top)
-    ax.set_ylabel("running max |H - H0| / |H0|")
-    ax.set_xlabel("t")
-    ax.set_title(f"energy: max |H - H0|/|H0| = {worst:.2g} ({worst / eps:.3g} eps)", fontsize=10)
-    ax.grid(True, linewidth=0.4, alpha=0.6)
-    if legend:
-        ax.legend(loc="lower right", fontsize=7, ncol=1 if len(solutions) <= 8 else 2)
-    return ax
+    return _finish(ax, "t", "running max |H - H0| / |H0|",
+                   f"energy: max |H - H0|/|H0| = {worst:.2g} ({worst / eps:.3g} eps)", legend and "lower right",
+                   len(solutions))
 
 
 def casimir(solutions, ax=None, *, labels=None, legend=True):
@@ -313,13 +309,8 @@ def casimir(solutions, ax=None, *, labels=None, legend=True):
         ax.scatter(sol.t[up], sol.S[up], color="red", marker="x", s=18, zorder=4)
     if rises:
         ax.scatter([], [], color="red", marker="x", s=18, label="S rose (beyond 16 ulps)")
-    ax.set_ylabel("S")
-    ax.set_xlabel("t")
-    ax.set_title(f"Casimir S: {rises} rises beyond round-off", fontsize=10, color="red" if rises else "black")
-    ax.grid(True, linewidth=0.4, alpha=0.6)
-    if legend:
-        ax.legend(loc="upper right", fontsize=7, ncol=1 if len(solutions) <= 8 else 2)
-    return ax
+    return _finish(ax, "t", "S", f"Casimir S: {rises} rises beyond round-off", legend and "upper right",
+                   len(solutions), "red" if rises else "black")
 
 
 def drift(solutions, ax=None, *, labels=None, count=20, t_min=None, legend=True):
@@ -348,13 +339,8 @@ def drift_windows(series, ax=None, *, legend=True):
         ax.loglog(centers[keep], np.maximum(maxima[keep], _TINY), markersize=4, linewidth=1.2,
                   label=f"{name}: {law}" + (f" (p = {p:.2f})" if np.isfinite(p) else ""), **style(i, len(series)))
     ax.axhline(_diagnostics.EPS, color="0.4", linewidth=0.9, linestyle=":", label="machine epsilon")
-    ax.set_xlabel("t")
-    ax.set_ylabel("windowed max |H - H0| / |H0|")
-    ax.set_title("energy drift: windowed maxima and growth law", fontsize=10)
-    ax.grid(True, which="major", linewidth=0.4, alpha=0.6)
-    if legend:
-        ax.legend(loc="best", fontsize=7, ncol=1 if len(series) <= 10 else 2)
-    return ax
+    return _finish(ax, "t", "windowed max |H - H0| / |H0|", "energy drift: windowed maxima and growth law",
+                   legend and "best", len(series))
 
 
 def work_precision(curves, ax=None, *, cost="wall", legend=True):
@@ -371,12 +357,19 @@ def work_precision(curves, ax=None, *, cost="wall", legend=True):
         line = style(i, len(curves))
         line["linestyle"] = "-" if curve.structure_preserving else "--"
         ax.loglog(getattr(curve, cost), curve.error, markersize=4, linewidth=1.2, label=curve.label, **line)
-    ax.set_xlabel("wall time [s] (median)" if cost == "wall" else "field evaluations")
-    ax.set_ylabel("global error |x(T) - x_ref(T)|")
-    ax.set_title("work-precision (solid: exact H and monotone S)", fontsize=10)
+    return _finish(ax, "wall time [s] (median)" if cost == "wall" else "field evaluations",
+                   "global error |x(T) - x_ref(T)|", "work-precision (solid: exact H and monotone S)",
+                   legend and "lower left", len(curves))
+
+
+def _finish(ax, xlabel, ylabel, title, legend_at, lines, title_color="black"):
+    """Labels, title, grid, and the key at ``legend_at`` (none when falsy; two columns past 10 lines)."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=10, color=title_color)
     ax.grid(True, which="major", linewidth=0.4, alpha=0.6)
-    if legend:
-        ax.legend(loc="lower left", fontsize=7, ncol=1 if len(curves) <= 10 else 2)
+    if legend_at:
+        ax.legend(loc=legend_at, fontsize=7, ncol=1 if lines <= 10 else 2)
     return ax
 
 
