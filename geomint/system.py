@@ -243,7 +243,10 @@ class MetriplecticSystem:
         """
         from . import expressions
 
-        return cls(**expressions.build(H=H, S=S, J=J, P=P, params=params, eps=eps, name=name))
+        system = cls(**expressions.build(H=H, S=S, J=J, P=P, params=params, eps=eps, name=name))
+        poisson = {"J": list(J)} if J is not None else {"P": [list(row) for row in P]}
+        system.expressions = {"H": H, "S": S, **poisson, "params": dict(params or {})}  # for saved results
+        return system
 
 
 # -- validation of the user's functions (the boundary) --------------------------------
