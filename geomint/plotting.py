@@ -67,18 +67,23 @@ def _as_list(solutions):
 
 
 def _labels(solutions, labels):
-    """One key per line: the given labels, else the method (if methods differ) and/or the initial state."""
+    """One key per line: the given labels, else the method (if methods differ) and/or the initial state;
+    a failed run's key says where it stopped."""
     if labels is not None:
         if len(labels) != len(solutions):
             raise ValueError(f"`labels` must give one label per solution ({len(solutions)}); got {len(labels)}.")
-        return list(labels)
-    names = [getattr(sol.method, "name", str(sol.method)) for sol in solutions]
-    starts = ["x0 = (" + ", ".join(f"{v:.3g}" for v in sol.x[0]) + ")" for sol in solutions]
-    if len(set(names)) == len(names):
-        return names
-    if len(set(names)) == 1:
-        return starts
-    return [f"{name}, {start}" for name, start in zip(names, starts)]
+        names = list(labels)
+    else:
+        methods = [getattr(sol.method, "name", str(sol.method)) for sol in solutions]
+        starts = ["x0 = (" + ", ".join(f"{v:.3g}" for v in sol.x[0]) + ")" for sol in solutions]
+        if len(set(methods)) == len(methods):
+            names = methods
+        elif len(set(methods)) == 1:
+            names = starts
+        else:
+            names = [f"{method}, {start}" for method, start in zip(methods, starts)]
+    return [name if sol.success else f"{name} failed, t = {sol.t_final:.3g}"
+            for sol, name in zip(solutions, names)]
 
 
 def _new_axis(ax, projection=None):
@@ -233,9 +238,9 @@ def _draw_equilibria(ax, system, H0, center, eye, box):
         if points.size == 0:
             continue
         drawn = set(ax.get_legend_handles_labels()[1])
-        if len(points) >= _CURVE_POINTS:
+        ordered = _chain(points) if len(points) >= _CURVE_POINTS else None
+        if ordered is not None:
             label = f"curve of {kind} equilibria"
-            ordered = _chain(points)
             visible = np.where((((ordered - center) @ eye) >= 0.0)[:, None], ordered, np.nan)
             ax.plot(*visible.T, color=_CURVE_COLOR[kind], linewidth=2.6, zorder=5,
                     label=None if label in drawn else label)
@@ -250,7 +255,8 @@ def _draw_equilibria(ax, system, H0, center, eye, box):
 
 
 def _chain(points):
-    """The points in nearest-neighbour order, closed into a loop when the ends are close."""
+    """The points in nearest-neighbour order as a polyline (closed when the ends are close, NaN across gaps),
+    or None when they are isolated points rather than samples of a curve (median step > 15% of their spread)."""
     left = list(range(1, len(points)))
     order = [0]
     while left:
@@ -260,9 +266,14 @@ def _chain(points):
         left.remove(nearest)
     path = points[order]
     steps = np.linalg.norm(np.diff(path, axis=0), axis=1)
-    if np.linalg.norm(path[-1] - path[0]) <= 2.0 * np.median(steps):
+    step = float(np.median(steps))
+    if step > 0.15 * float(np.max(np.ptp(points, axis=0))):
+        return None
+    if np.linalg.norm(path[-1] - path[0]) <= 2.0 * step:
         path = np.vstack([path, path[:1]])
-    return path
+        steps = np.append(steps, np.linalg.norm(path[-1] - path[-2]))
+    pieces = np.split(path, np.flatnonzero(steps > 4.0 * step) + 1)
+    return np.vstack([np.vstack([piece, np.full((1, 3), np.nan)]) for piece in pieces])[:-1]
 
 
 def _set_limits(ax, box):
@@ -309,7 +320,7 @@ def casimir(solutions, ax=None, *, labels=None, legend=True):
         ax.scatter(sol.t[up], sol.S[up], color="red", marker="x", s=18, zorder=4)
     if rises:
         ax.scatter([], [], color="red", marker="x", s=18, label="S rose (beyond 16 ulps)")
-    return _finish(ax, "t", "S", f"Casimir S: {rises} rises beyond round-off", legend and "upper right",
+    return _finish(ax, "t", "S", f"Casimir S: {rises} {'rise' if rises == 1 else 'rises'} beyond round-off", legend and "upper right",
                    len(solutions), "red" if rises else "black")
 
 
@@ -320,10 +331,16 @@ def drift(solutions, ax=None, *, labels=None, count=20, t_min=None, legend=True)
     law ``max ~ C t^p`` is fitted for ``t >= t_min`` (default: a tenth of the run).
     """
     solutions = _as_list(solutions)
-    series = []
+    series, short = [], []
     for sol, name in zip(solutions, _labels(solutions, labels)):
+        if len(sol.t) < 3:  # a run that failed at once has no drift to show
+            short.append(name)
+            continue
         centers, maxima = _diagnostics.windowed_drift(sol, count)
         series.append((name, centers, maxima, 0.1 * (sol.t[-1] - sol.t[0]) if t_min is None else t_min))
+    ax = _new_axis(ax)
+    for name in short:
+        ax.plot([], [], " ", label=f"{name}: fewer than 3 saved states, not drawn")
     return drift_windows(series, ax, legend=legend)
 
 
@@ -339,7 +356,7 @@ def drift_windows(series, ax=None, *, legend=True):
         ax.loglog(centers[keep], np.maximum(maxima[keep], _TINY), markersize=4, linewidth=1.2,
                   label=f"{name}: {law}" + (f" (p = {p:.2f})" if np.isfinite(p) else ""), **style(i, len(series)))
     ax.axhline(_diagnostics.EPS, color="0.4", linewidth=0.9, linestyle=":", label="machine epsilon")
-    return _finish(ax, "t", "windowed max |H - H0| / |H0|", "energy drift: windowed maxima and growth law",
+    return _finish(ax, "t", "windowed max |H - H0| / |H0|", "energy drift: windowed maxima and growth law (zeros at eps/8)",
                    legend and "best", len(series))
 
 
@@ -403,8 +420,8 @@ def invariants(result, ax_H, ax_S, legend=True):
 
 
 def _overview(plt, result):
-    fig = plt.figure(figsize=(14.0, 6.6))
-    grid = fig.add_gridspec(2, 3, width_ratios=(1.05, 1.0, 0.5), hspace=0.42, wspace=0.27, left=0.0, right=0.99,
+    fig = plt.figure(figsize=(14.5, 6.6))
+    grid = fig.add_gridspec(2, 3, width_ratios=(1.05, 1.0, 0.62), hspace=0.42, wspace=0.25, left=0.0, right=0.99,
                             top=0.86, bottom=0.09)
     ax3d = fig.add_subplot(grid[:, 0], projection="3d")
     trajectories(result, ax3d, legend=False)
@@ -429,25 +446,31 @@ def _shared_key(fig, cell, axes):
 
 
 def _trajectories_figure(plt, result):
-    fig = plt.figure(figsize=(7.5, 7.0))
-    fig.subplots_adjust(left=0.0, right=0.95, top=0.88, bottom=0.04)
-    trajectories(result, fig.add_subplot(projection="3d"))
+    fig = plt.figure(figsize=(10.5, 7.0))
+    grid = fig.add_gridspec(1, 2, width_ratios=(1.0, 0.45), left=0.0, right=0.99, top=0.88, bottom=0.04)
+    ax = fig.add_subplot(grid[0, 0], projection="3d")
+    trajectories(result, ax, legend=False)
+    _shared_key(fig, grid[0, 1], [ax])
     fig.suptitle(_title(result), fontsize=11)
     return fig
 
 
 def _invariants_figure(plt, result):
-    fig, (ax_H, ax_S) = plt.subplots(2, 1, figsize=(7.5, 6.4), sharex=True)
-    fig.subplots_adjust(top=0.84, hspace=0.3)
-    invariants(result, ax_H, ax_S)
+    fig = plt.figure(figsize=(10.5, 6.4))
+    grid = fig.add_gridspec(2, 2, width_ratios=(1.0, 0.45), hspace=0.3, left=0.08, right=0.99, top=0.84)
+    ax_H, ax_S = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[1, 0])
+    invariants(result, ax_H, ax_S, legend=False)
+    _shared_key(fig, grid[:, 1], [ax_H, ax_S])
     fig.suptitle(_title(result), fontsize=11)
     return fig
 
 
 def _drift_figure(plt, result):
-    fig, ax = plt.subplots(figsize=(7.5, 5.0))
-    fig.subplots_adjust(top=0.84)
-    drift(result.solutions, ax, labels=_scene_labels(result))
+    fig = plt.figure(figsize=(10.5, 5.0))
+    grid = fig.add_gridspec(1, 2, width_ratios=(1.0, 0.5), left=0.1, right=0.99, top=0.8)
+    ax = fig.add_subplot(grid[0, 0])
+    drift(result.solutions, ax, labels=_scene_labels(result), legend=False)
+    _shared_key(fig, grid[0, 1], [ax])
     fig.suptitle(_title(result), fontsize=11)
     return fig
 

@@ -36,7 +36,7 @@ def test_casimir_marks_and_counts_S_rises():
                            S=np.array([3.0, 2.0, 2.5, 1.0, 0.5]), success=True, status=0, message="", failed_step=None,
                            n_steps=n - 1, n_newton=0, nfev=0, method=geomint.RK4())
     ax = plotting.casimir(sol)
-    assert ax.get_title() == "Casimir S: 1 rises beyond round-off"
+    assert ax.get_title() == "Casimir S: 1 rise beyond round-off"
     assert "S rose (beyond 16 ulps)" in _labels(ax)
 
 
