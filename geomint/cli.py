@@ -207,10 +207,11 @@ def main(argv=None):
             if args.command == "run":
                 return run(args.scene, args.out, args.quiet)
             return show(args.scene)
-        except SceneError as exc:
+        except (SceneError, OSError) as exc:
             if args.traceback:
                 raise
-            print(f"geomint: error: {exc}", file=sys.stderr)
+            problem = exc if isinstance(exc, SceneError) else f"cannot write the results ({exc}); choose --out DIR"
+            print(f"geomint: error: {problem}", file=sys.stderr)
             return BAD_INPUT
     if args.command == "list":
         return list_all()

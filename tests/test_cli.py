@@ -209,3 +209,11 @@ def test_a_scene_written_as_formulas_runs_from_the_command_line(tmp_path):
     assert summary["scene"]["system"]["H"] == "(y**2 + z**2)/2 - r*z"
     assert summary["totals"]["S_rises"] == 0 and summary["totals"]["max_energy_error"] < 1e-14
     assert (tmp_path / "lorenz_nevir.overview.png").exists()
+
+
+def test_an_output_folder_that_cannot_be_written_is_one_line(tmp_path, capsys):
+    blocked = tmp_path / "file"
+    blocked.write_text("not a folder")
+    assert main(["run", str(_scene(tmp_path)), "--out", str(blocked / "out"), "--quiet"]) == BAD_INPUT
+    err = capsys.readouterr().err
+    assert err.startswith("geomint: error: cannot write the results (") and err.count("\n") == 1

@@ -166,11 +166,26 @@ INTERPRETED = {
     "system.name": ("system", "name"), "integrator.method": ("integrator", "method"),
     "output.record": ("output", "record", None), "output.figures": ("output", "figures", None),
     "output.every": ("output", "every"), "section key": ("*output",), "integrator option key": ("integrator", "*h"),
+    "system.P[1][2]": ("system", "P", 1, 2), "integrator.base": ("integrator", "base"),
+    "integrator option value": ("integrator", "monotone"), "initial.level_set key": ("initial", "level_set", "*H0"),
 }
 
 
 def _scene_with(field, text):
     path = INTERPRETED[field]
+    if field == "system.P[1][2]":
+        data = _put(("system", "J"), None)
+        del data["system"]["J"]
+        data["system"]["P"] = [["0", "sigma", "0"], ["-sigma", "0", text], ["0", "x", "0"]]
+        return data
+    if field in ("integrator.base", "integrator option value"):
+        data = _put(("integrator", "method"), "yoshida4")
+        data["integrator"][path[-1]] = text
+        return data
+    if field == "initial.level_set key":
+        data = _put(("initial",), {"level_set": {"H0": 300.0, "n": 2}})
+        data["initial"]["level_set"][text] = data["initial"]["level_set"].pop("H0")
+        return data
     if path[-1] is None:  # a list of names
         return _put(path[:-1], [text])
     if path == ("*output",):
