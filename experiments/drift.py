@@ -106,7 +106,8 @@ HEADERS = ["method", "t reached", "steps", "field evals", "wall s", "max |H-H0|/
 
 def plot(problem, runs, ax, settings):
     series = [(run.label, run.windows.centers, run.windows.maxima, settings.fit_from) for run in runs]
-    plotting.drift_windows(series, ax, legend=False)
+    plotting.drift_windows(series, ax, legend=False, law_in_key=False,
+                           linestyles=["-" if run.kind == "geomint" else "--" for run in runs])
     ax.set_title(problem.title)
 
 
@@ -121,7 +122,7 @@ def main(quick=False, out=None, log=print):
         plot(problem, runs, ax, settings)
         sections.append(f"**{problem.title}**, h = {settings.h:g} for geomint methods\n\n"
                         + markdown_table(HEADERS, table_rows(problem, runs, settings)))
-    axes[0].legend(fontsize=6, ncol=2)
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="center left", bbox_to_anchor=(1.0, 0.5), fontsize=7)
     name = save(fig, "drift.png", **({} if out is None else {"out": out}))
     return "\n\n".join([
         "## Long-time drift",

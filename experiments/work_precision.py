@@ -111,7 +111,7 @@ def fastest_structure_preserving(curves, target=1e-8):
 
 def plot(problem, curves, uncertainty, axes):
     for ax, cost in zip(axes, ("wall", "nfev")):
-        plotting.work_precision(curves, ax, cost=cost, legend=ax is axes[0])
+        plotting.work_precision(curves, ax, cost=cost, legend=False)
         ax.axhline(max(uncertainty, 1e-16), color="grey", lw=0.8, ls=":")
         ax.set_title(f"{problem.title} (solid: exact H and monotone S)", fontsize=9)
 
@@ -145,6 +145,7 @@ def main(quick=False, out=None, log=print):
         curves, uncertainty, note = run_problem(problem, settings, methods, log)
         fig, axes = figure(2, 1)
         plot(problem, curves, uncertainty, axes)
+        fig.legend(*axes[0].get_legend_handles_labels(), loc="center left", bbox_to_anchor=(1.0, 0.5), fontsize=7)
         name = save(fig, f"work_precision_{problem.name}.png", **out_kw)
         targets[problem.name] = fastest_structure_preserving(curves)
         parts += [f"### {problem.title}", f"Reference: {note}.", f"![work-precision {problem.name}]({name})",

@@ -51,15 +51,17 @@ def _pyplot():
 
 
 def style(i, n=1):
-    """Line style of the ``i``-th of ``n`` lines: 10 colours x 2 line styles, and a marker, distinct up to 20.
+    """Line style of the ``i``-th of ``n`` lines: colour, line style and marker, distinct up to 40.
 
-    Up to 10 lines get 10 distinct colours (``tab10``) and solid lines; lines
-    11-20 repeat the colours dashed; the marker changes with ``i`` too.
+    Lines 1-10 get the 10 colours of ``tab10``, solid; lines 11-20 the same
+    colours dashed, and so on; the marker shifts by one every 10 lines, so
+    colour and marker alone still tell 20 lines apart when a caller sets the
+    line style itself.
     """
     plt = _pyplot()
     colors = plt.get_cmap("tab10").colors
     return dict(color=colors[i % 10], linestyle=_LINESTYLES[(i // 10) % len(_LINESTYLES)],
-                marker=_MARKERS[i % len(_MARKERS)] if n > 1 else None)
+                marker=_MARKERS[(i + i // 10) % len(_MARKERS)] if n > 1 else None)
 
 
 def _as_list(solutions):
@@ -344,17 +346,24 @@ def drift(solutions, ax=None, *, labels=None, count=20, t_min=None, legend=True)
     return drift_windows(series, ax, legend=legend)
 
 
-def drift_windows(series, ax=None, *, legend=True):
+def drift_windows(series, ax=None, *, legend=True, law_in_key=True, linestyles=None):
     """``drift`` for maxima already taken: ``series`` holds ``(label, centers, maxima, t_min)`` per line.
 
     For long runs summarised chunk by chunk in a ``geomint.diagnostics.Windows``.
+    ``law_in_key=False`` keys lines by label alone (a key shared by panels of
+    different problems); ``linestyles`` (one per line) overrides the styles'
+    line styles, e.g. to tell two kinds of method apart.
     """
     ax = _new_axis(ax)
     for i, (name, centers, maxima, t_min) in enumerate(series):
         p, law = _diagnostics.growth_law(centers, maxima, t_min)
         keep = np.isfinite(maxima)
-        ax.loglog(centers[keep], np.maximum(maxima[keep], _TINY), markersize=4, linewidth=1.2,
-                  label=f"{name}: {law}" + (f" (p = {p:.2f})" if np.isfinite(p) else ""), **style(i, len(series)))
+        line = style(i, len(series))
+        if linestyles is not None:
+            line["linestyle"] = linestyles[i]
+        fit = f": {law}" + (f" (p = {p:.2f})" if np.isfinite(p) else "") if law_in_key else ""
+        ax.loglog(centers[keep], np.maximum(maxima[keep], _TINY), markersize=4, linewidth=1.2, label=name + fit,
+                  **line)
     ax.axhline(_diagnostics.EPS, color="0.4", linewidth=0.9, linestyle=":", label="machine epsilon")
     return _finish(ax, "t", "windowed max |H - H0| / |H0|", "energy drift: windowed maxima and growth law (zeros at eps/8)",
                    legend and "best", len(series))

@@ -20,8 +20,9 @@ def _labels(ax):
 
 
 def test_twenty_methods_get_twenty_distinct_styles():
-    styles = {(plotting.style(i, 20)["color"], plotting.style(i, 20)["linestyle"]) for i in range(20)}
-    assert len(styles) == 20
+    styles = [plotting.style(i, 20) for i in range(20)]
+    assert len({(s["color"], s["linestyle"]) for s in styles}) == 20
+    assert len({(s["color"], s["marker"]) for s in styles}) == 20  # also when a caller sets the line styles
 
 
 def test_energy_error_keys_every_method_and_reports_the_worst(runs):
