@@ -46,7 +46,7 @@ Every integrator can be named, with its options as further keys of
 sub-integrators are names or tables themselves (``geomint.method_data``)::
 
     method = "yoshida4"                      # a composition ...
-    base = "avf"                             # ... of AVF
+    base = "symmetrized_itoh_abe"            # ... of the symmetrized Itoh-Abe step
     # method = "strang", hamiltonian_part = "rigid_body_flow", gradient_part = "gonzalez"
     # method = { name = "projected", method = "rk4", symmetric = false }
 
@@ -70,7 +70,7 @@ import numpy as np
 from . import level_set as _level_set
 from . import diagnostics as _diagnostics
 from . import expressions as _expressions
-from .method_data import MethodDataError, method_from_data, method_to_data, short_names
+from .method_data import MethodDataError, method_from_data, method_to_data
 from .solve import solve, step_count
 from .system import MetriplecticSystem
 from .systems import CATALOGUE
