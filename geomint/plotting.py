@@ -8,8 +8,8 @@ a key for every line; up to 20 distinct styles from ``style``):
   unstable, grey = neutral; a curve of equilibria drawn as a curve; those
   behind the surface are left out and counted in the key); failed
   trajectories end in a red cross and are counted in the title; on an
-  unbounded (or very large) level set the axes fit the trajectories and the
-  surface is clipped to them.
+  unbounded level set the axes fit the trajectories and the surface is
+  clipped to them.
 - ``energy_error(solutions)``: the running maximum of ``|H - H0| / |H0|`` (log scale).
 - ``casimir(solutions)``: ``S(t)`` with every rise beyond round-off marked.
 - ``drift(solutions)``: windowed maxima of the energy error with the fitted growth law
@@ -39,6 +39,7 @@ _MARKERS = ("o", "s", "^", "v", "D", "P", "X", "<", ">", "*")
 _LINESTYLES = ("-", "--", ":", "-.")
 _TINY = _diagnostics.EPS / 8  # where exact zeros of an error sit on a log axis
 _CURVE_POINTS = 6  # this many equilibria of one kind, evenly spaced, are drawn as a curve
+_UNBOUNDED = 20.0  # a level-set mesh this many times larger than the trajectories is taken as unbounded
 
 
 def _pyplot():
@@ -195,14 +196,15 @@ def _fitted_box(points, margin=0.08):
 
 
 def _union_if_bounded(box, surface, paths):
-    """The box of the trajectories and the surface, unless the surface is far larger (unbounded, or a
-    level set much larger than the part the trajectories visit): then the trajectories' box, grown."""
+    """The box of the trajectories and the surface (grown a little, so that points on the surface
+    between mesh nodes stay inside), unless the surface is more than ``_UNBOUNDED`` times larger
+    (an unbounded level set meshed out to huge radii): then the trajectories' box, grown."""
     flat = surface.reshape(-1, 3)
     flat = flat[np.all(np.isfinite(flat), axis=1)]
     size_paths = float(np.max(box[1] - box[0]))
     size_surface = float(np.max(flat.max(axis=0) - flat.min(axis=0)))
-    if size_surface <= 4.0 * size_paths:
-        return np.minimum(box[0], flat.min(axis=0)), np.maximum(box[1], flat.max(axis=0))
+    if size_surface <= _UNBOUNDED * size_paths:
+        return _fitted_box(np.vstack([flat, box[0], box[1]]), margin=0.03)
     middle = 0.5 * (box[0] + box[1])
     half = 0.6 * max(size_paths, 1e-12)
     return middle - half, middle + half
