@@ -39,7 +39,7 @@ _MARKERS = ("o", "s", "^", "v", "D", "P", "X", "<", ">", "*")
 _LINESTYLES = ("-", "--", ":", "-.")
 _TINY = _diagnostics.EPS / 8  # where exact zeros of an error sit on a log axis
 _CURVE_POINTS = 6  # this many equilibria of one kind, evenly spaced, are drawn as a curve
-_UNBOUNDED = 20.0  # a level-set mesh this many times larger than the trajectories is taken as unbounded
+_FAR = 1e3  # H < H0 this many mesh radii out: the level set is unbounded
 
 
 def _pyplot():
@@ -133,7 +133,7 @@ def level_surface(system, solutions, ax=None, *, labels=None, center=None, view=
         surface = _surface(system, H0, center, box)
         if surface is None:
             continue
-        box = _union_if_bounded(box, surface, paths)
+        box = _union_if_bounded(system, H0, center, box, surface)
         ax.plot_surface(*_clip(surface, box), color="steelblue", alpha=0.12, linewidth=0.2,
                         edgecolor="lightsteelblue", shade=False, rstride=2, cstride=2)
         for plane in sections:
@@ -195,19 +195,24 @@ def _fitted_box(points, margin=0.08):
     return low - pad, high + pad
 
 
-def _union_if_bounded(box, surface, paths):
+def _union_if_bounded(system, H0, center, box, surface):
     """The box of the trajectories and the surface (grown a little, so that points on the surface
-    between mesh nodes stay inside), unless the surface is more than ``_UNBOUNDED`` times larger
-    (an unbounded level set meshed out to huge radii): then the trajectories' box, grown."""
+    between mesh nodes stay inside); on an unbounded level set, the trajectories' box, grown."""
     flat = surface.reshape(-1, 3)
     flat = flat[np.all(np.isfinite(flat), axis=1)]
-    size_paths = float(np.max(box[1] - box[0]))
-    size_surface = float(np.max(flat.max(axis=0) - flat.min(axis=0)))
-    if size_surface <= _UNBOUNDED * size_paths:
+    if not _unbounded(system, H0, center, flat):
         return _fitted_box(np.vstack([flat, box[0], box[1]]), margin=0.03)
     middle = 0.5 * (box[0] + box[1])
-    half = 0.6 * max(size_paths, 1e-12)
+    half = 0.6 * max(float(np.max(box[1] - box[0])), 1e-12)
     return middle - half, middle + half
+
+
+def _unbounded(system, H0, center, mesh_points):
+    """Whether ``H < H0`` somewhere far out (``_FAR`` times the mesh's median radius): then the level
+    set is unbounded, and the ray mesh reaches out only as far as its rays happen to meet it."""
+    radius = float(np.median(np.linalg.norm(mesh_points - center, axis=1)))
+    directions = np.vstack([np.eye(3), -np.eye(3), _level_set.fibonacci_directions(400)])
+    return bool(np.any(system.H(center + _FAR * radius * directions) < H0))
 
 
 def _inside(points, box):
