@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from geomint import plotting
+
 from . import problems
 from .methods import SCIPY_DRIFT, geomint_methods
 from .report import figure, markdown_table, save
@@ -102,15 +104,11 @@ HEADERS = ["method", "t reached", "steps", "field evals", "wall s", "max |H-H0|/
            "S rises", "final: dist. to attractor", "final: error vs exact", "note"]
 
 
-def plot(problem, runs, ax):
-    for run in runs:
-        keep = np.isfinite(run.windows.maxima)
-        style = "-" if run.kind == "geomint" else "--"
-        ax.loglog(run.windows.centers[keep], np.maximum(run.windows.maxima[keep], 1e-17), style, label=run.label)
+def plot(problem, runs, ax, settings):
+    series = [(run.label, run.windows.centers, run.windows.maxima, settings.fit_from) for run in runs]
+    plotting.drift_windows(series, ax, legend=False, law_in_key=False,
+                           linestyles=["-" if run.kind == "geomint" else "--" for run in runs])
     ax.set_title(problem.title)
-    ax.set_xlabel("t")
-    ax.set_ylabel("windowed max |H - H0| / |H0|")
-    ax.grid(True, which="major", alpha=0.3)
 
 
 def main(quick=False, out=None, log=print):
@@ -121,10 +119,10 @@ def main(quick=False, out=None, log=print):
     sections = []
     for ax, problem in zip(axes, drift_problems()):
         runs = run_problem(problem, settings, methods, log)
-        plot(problem, runs, ax)
+        plot(problem, runs, ax, settings)
         sections.append(f"**{problem.title}**, h = {settings.h:g} for geomint methods\n\n"
                         + markdown_table(HEADERS, table_rows(problem, runs, settings)))
-    axes[0].legend(fontsize=6, ncol=2)
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="center left", bbox_to_anchor=(1.0, 0.5), fontsize=7)
     name = save(fig, "drift.png", **({} if out is None else {"out": out}))
     return "\n\n".join([
         "## Long-time drift",

@@ -44,7 +44,7 @@ def save(fig, name, out=DOCS):
     """Write ``fig`` to ``out/name`` (PNG) and return the file name for markdown."""
     out.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
-    fig.savefig(out / name, dpi=110)
+    fig.savefig(out / name, dpi=110, bbox_inches="tight")  # keys placed beside the axes stay in
     plt.close(fig)
     return name
 

@@ -5,15 +5,14 @@ wrapped in one too), so memory stays bounded, every step is seen, and a wall
 time budget can stop a run early (its reached time is reported).
 """
 
-import math
-import statistics
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
 import geomint
+from geomint.diagnostics import Windows, growth_law, median_time  # noqa: F401 (used by drift, work_precision)
 
 from .compiled import scipy_rhs
 
@@ -36,22 +35,6 @@ def not_applicable(method, system, x0, h=1e-3):
     return None
 
 
-def median_time(run, repeats, budget=2.0):
-    """Median wall time of ``run()`` over ``repeats`` calls (fewer when one call exceeds ``budget`` s).
-
-    Returns ``(median seconds, last result)``; call it after a warm-up call so
-    compilation is excluded.
-    """
-    times, result = [], None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        result = run()
-        times.append(time.perf_counter() - start)
-        if sum(times) > budget:
-            break
-    return statistics.median(times), result
-
-
 def scipy_solution(system, x0, t_span, method, rtol, rhs=None, **options):
     """``solve_ivp`` on the system's field, returned as a ``geomint.Solution`` (all steps saved)."""
     rhs = scipy_rhs(system) if rhs is None else rhs
@@ -63,50 +46,6 @@ def scipy_solution(system, x0, t_span, method, rtol, rhs=None, **options):
         message=result.message, failed_step=None, n_steps=int(result.t.size - 1), n_newton=int(getattr(result, "nlu", 0)),
         nfev=int(result.nfev), method=f"{method} rtol={rtol:g}",
     )
-
-
-@dataclass
-class Windows:
-    """Maxima of a quantity over log-spaced windows of time ``[edges[i], edges[i+1])`` (the first from 0)."""
-
-    edges: np.ndarray
-    maxima: np.ndarray = field(init=False)
-
-    def __post_init__(self):
-        self.maxima = np.full(self.edges.size - 1, np.nan)
-
-    @classmethod
-    def log_spaced(cls, t_first, t_end, count):
-        return cls(np.geomspace(t_first, t_end, count + 1))
-
-    def add(self, t, values):
-        index = np.clip(np.searchsorted(self.edges, t, side="right") - 1, 0, self.maxima.size - 1)
-        current = np.where(np.isnan(self.maxima), -np.inf, self.maxima)
-        np.maximum.at(current, index, values)
-        self.maxima = np.where(np.isfinite(current), current, np.nan)
-
-    @property
-    def centers(self):
-        return np.sqrt(self.edges[:-1] * self.edges[1:])
-
-
-def growth_law(t, maxima, t_min, floor=1e-17):
-    """Fit ``max |H - H0| ~ C t^p`` over windows with ``t >= t_min``; returns ``(p, law)``.
-
-    ``law`` is "flat" (p < 0.25), "sqrt t" (p < 0.75), "t" (p < 1.25) or
-    ``"t^p"``; values are floored at ``floor`` (exact zeros).
-    """
-    keep = (t >= t_min) & np.isfinite(maxima)
-    if np.count_nonzero(keep) < 3:
-        return math.nan, "n/a"
-    p = float(np.polyfit(np.log(t[keep]), np.log(np.maximum(maxima[keep], floor)), 1)[0])
-    if p < 0.25:
-        return p, "flat"
-    if p < 0.75:
-        return p, "sqrt t"
-    if p < 1.25:
-        return p, "t"
-    return p, f"t^{p:.1f}"
 
 
 @dataclass

@@ -10,12 +10,12 @@ estimated by its distance to DOP853 at rtol = 1e-13 and printed; errors below
 it are not trusted.
 """
 
-import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-import geomint
+from geomint import plotting
+from geomint.diagnostics import Curve, cost_to_reach, work_precision
 
 from . import problems
 from .compiled import scipy_rhs
@@ -46,19 +46,6 @@ def wp_problems():
     return [problems.relaxing_rigid_body(eps=0.1), problems.oscillator(eps=1.0), problems.quartic_rigid_body(eps=0.1)]
 
 
-@dataclass
-class Curve:
-    """One method's sweep: cost and error per run, in the order run."""
-
-    label: str
-    kind: str
-    structure_preserving: bool = False
-    wall: list = field(default_factory=list)
-    nfev: list = field(default_factory=list)
-    error: list = field(default_factory=list)
-    setting: list = field(default_factory=list)
-
-
 def reference(problem, t_end):
     """``(x_ref(T), uncertainty, note)``."""
     tight = scipy_solution(problem.system, problem.x0, (0.0, t_end), "DOP853", TIGHTEST_RTOL).x_final
@@ -72,28 +59,8 @@ def reference(problem, t_end):
 
 
 def geomint_curve(problem, method, settings, x_ref):
-    curve = Curve(method.label, "geomint", method.structure_preserving)
-    t_span = (0.0, settings.t_end)
-    geomint.solve(problem.system, problem.x0, t_span, settings.t_end / 4, method=method.integrator, save_every=None)
-    plateau = 0
-    start = time.perf_counter()
-    for n in settings.steps:
-        if time.perf_counter() - start > settings.sweep_budget:
-            break
-        h = settings.t_end / n
-        seconds, solution = median_time(
-            lambda: geomint.solve(problem.system, problem.x0, t_span, h, method=method.integrator, save_every=None),
-            settings.repeats, settings.point_budget)
-        if not solution.success:
-            continue
-        curve.wall.append(seconds)
-        curve.nfev.append(solution.nfev)
-        curve.error.append(float(np.linalg.norm(solution.x_final - x_ref)))
-        curve.setting.append(h)
-        plateau = plateau + 1 if curve.error[-1] < 1e-13 else 0
-        if plateau == 2:
-            break
-    return curve
+    return work_precision(problem.system, problem.x0, settings.t_end, method.integrator, settings.steps, x_ref,
+                          settings.repeats, settings.point_budget, settings.sweep_budget, label=method.label)
 
 
 def scipy_curve(problem, name, settings, x_ref, rhs):
@@ -111,21 +78,6 @@ def scipy_curve(problem, name, settings, x_ref, rhs):
         if seconds > settings.scipy_cutoff:
             break
     return curve
-
-
-def cost_to_reach(cost, error, target):
-    """Cost at which ``error`` first falls to ``target``, interpolated in log-log; NaN if never."""
-    cost, error = np.asarray(cost, float), np.asarray(error, float)
-    order = np.argsort(cost)
-    cost, error = cost[order], error[order]
-    below = np.flatnonzero(error <= target)
-    if below.size == 0:
-        return np.nan
-    i = below[0]
-    if i == 0 or error[i - 1] == error[i]:
-        return float(cost[i])
-    w = (np.log(target) - np.log(error[i - 1])) / (np.log(error[i]) - np.log(error[i - 1]))
-    return float(np.exp(np.log(cost[i - 1]) + w * (np.log(cost[i]) - np.log(cost[i - 1]))))
 
 
 def cost_table(curves):
@@ -158,17 +110,10 @@ def fastest_structure_preserving(curves, target=1e-8):
 
 
 def plot(problem, curves, uncertainty, axes):
-    for curve in curves:
-        style = "o-" if curve.kind == "geomint" else "s--"
-        axes[0].loglog(curve.wall, curve.error, style, ms=3, label=curve.label)
-        axes[1].loglog(curve.nfev, curve.error, style, ms=3, label=curve.label)
-    for ax, xlabel in zip(axes, ("wall time [s] (median, compiled)", "field evaluations")):
+    for ax, cost in zip(axes, ("wall", "nfev")):
+        plotting.work_precision(curves, ax, cost=cost, legend=False)
         ax.axhline(max(uncertainty, 1e-16), color="grey", lw=0.8, ls=":")
-        ax.set_xlabel(xlabel)
-        ax.set_ylabel("global error |x(T) - x_ref(T)|")
-        ax.set_title(problem.title, fontsize=9)
-        ax.grid(True, alpha=0.3)
-    axes[0].legend(fontsize=6)
+        ax.set_title(f"{problem.title} (solid: exact H and monotone S)", fontsize=9)
 
 
 def run_problem(problem, settings, methods, log=print):
@@ -200,6 +145,7 @@ def main(quick=False, out=None, log=print):
         curves, uncertainty, note = run_problem(problem, settings, methods, log)
         fig, axes = figure(2, 1)
         plot(problem, curves, uncertainty, axes)
+        fig.legend(*axes[0].get_legend_handles_labels(), loc="center left", bbox_to_anchor=(1.0, 0.5), fontsize=7)
         name = save(fig, f"work_precision_{problem.name}.png", **out_kw)
         targets[problem.name] = fastest_structure_preserving(curves)
         parts += [f"### {problem.title}", f"Reference: {note}.", f"![work-precision {problem.name}]({name})",

@@ -1,10 +1,11 @@
 """geomint: structure-preserving integrators for metriplectic systems in R^3."""
 
-from . import analysis, continuation, level_set, reference, systems
+from . import analysis, continuation, diagnostics, level_set, reference, systems
 from .integrators import (
     AVF, RK4, Composition, DampedGonzalez, Gonzalez, Integrator, ItohAbe, KahanLi6, KahanLi8, Lie, OscillatorRotation,
     Projected, RigidBodyFlow, RotorSplitting, Strang, Suzuki4, SuzukiUmeno8, SymmetrizedItohAbe, Yoshida4, Yoshida6,
 )
+from .io import load
 from .scene import Scene, SceneError, SceneResult, run_scene
 from .solution import Solution
 from .solve import solve
@@ -16,5 +17,5 @@ __all__ = [
     "AVF", "RK4", "Composition", "DampedGonzalez", "Gonzalez", "Integrator", "ItohAbe", "KahanLi6", "KahanLi8", "Lie",
     "MetriplecticSystem", "OscillatorRotation", "Projected", "RigidBodyFlow", "RotorSplitting", "Scene", "SceneError",
     "SceneResult", "Solution", "Strang", "Suzuki4", "SuzukiUmeno8", "SymmetrizedItohAbe", "Yoshida4", "Yoshida6",
-    "__version__", "analysis", "continuation", "level_set", "reference", "run_scene", "solve", "systems",
+    "__version__", "analysis", "continuation", "diagnostics", "level_set", "load", "reference", "run_scene", "solve", "systems",
 ]

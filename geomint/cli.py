@@ -3,7 +3,7 @@
     geomint run SCENE [--out DIR] [--quiet]   run a scene: .npz data, JSON summary, PNG figures
     geomint show SCENE                        validate a scene and print it fully resolved (TOML)
     geomint list                              catalogue systems, integrators, bundled scenes
-    geomint drift                             Gonzalez vs RK4 drift on the relaxing rigid body (the default)
+    geomint drift                             Gonzalez vs RK4 drift on the relaxing rigid body
 
 SCENE is a scene file (TOML, see ``geomint.scene``) or the name of a bundled
 scene, e.g. ``geomint run rigid_body_distinct``.  A bad scene prints one line
@@ -23,6 +23,7 @@ import numpy as np
 
 from . import __version__
 from .integrators import RK4, Gonzalez
+from .method_data import method_to_data, options_of, short_names
 from .scene import FIGURES, OBSERVABLES, SceneError, bundled_scenes, load, run_scene
 from .solve import solve
 from .systems import CATALOGUE, relaxing_rigid_body
@@ -144,17 +145,15 @@ def show(scene_name, out=None):
 def list_all(out=None):
     """``geomint list``: what scenes can name."""
     out = sys.stdout if out is None else out
-    from .integrators import INTEGRATORS
-
     print("systems ([system] name):", file=out)
     for name, constructor in CATALOGUE.items():
         print(f"  {name:<24}{constructor.__doc__.strip().splitlines()[0]}", file=out)
-    print("integrators ([integrator] method):", file=out)
-    for name, cls in sorted(INTEGRATORS.items()):
-        method = cls()
-        traits = ", ".join(t for t in ("energy_exact", "dissipative", "symmetric", "implicit") if getattr(method, t))
-        print(f"  {name:<24}order {method.order}; {traits or 'no structure'}; {cls.__doc__.strip().splitlines()[0]}",
-              file=out)
+    print("integrators ([integrator] method; order and traits with the default options):", file=out)
+    for name, cls in short_names().items():
+        print(f"  {name:<24}{_traits(cls())}; {cls.__doc__.strip().splitlines()[0]}", file=out)
+        defaults = method_to_data(cls())
+        options = ", ".join(f"{k} = {_toml_value(defaults[k]) if k in defaults else '(unset)'}" for k in options_of(cls))
+        print(f"  {'':<24}options: {options or 'none'}", file=out)
     print("observables ([output] record):", file=out)
     for name, (what, _) in OBSERVABLES.items():
         print(f"  {name:<24}{what}", file=out)
@@ -165,6 +164,16 @@ def list_all(out=None):
     for name, path in bundled_scenes().items():
         print(f"  {name:<24}{load(str(path)).title}", file=out)
     return OK
+
+
+def _traits(method):
+    """``order 2, energy-exact, dissipative, symmetric, implicit`` (the traits that hold), for ``list``."""
+    order = "exact flow" if method.order == float("inf") else f"order {method.order}"
+    traits = [label for label, on in (("energy-exact", method.energy_exact), ("dissipative", method.dissipative),
+                                      ("symmetric", method.symmetric), ("implicit", method.implicit)) if on]
+    if getattr(method, "flows", ("full",)) == ("hamiltonian",):
+        traits.append("Hamiltonian sub-flow only (a splitting's hamiltonian_part, or eps = 0)")
+    return ", ".join([order, *traits])
 
 
 def to_toml(data):
@@ -188,27 +197,29 @@ def _toml_value(value):
 
 
 def main(argv=None):
-    args = _parser().parse_args(argv)
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return OK
     if args.command in ("run", "show"):
         try:
             if args.command == "run":
                 return run(args.scene, args.out, args.quiet)
             return show(args.scene)
-        except SceneError as exc:
+        except (SceneError, OSError) as exc:
             if args.traceback:
                 raise
-            print(f"geomint: error: {exc}", file=sys.stderr)
+            problem = exc if isinstance(exc, SceneError) else f"cannot write the results ({exc}); choose --out DIR"
+            print(f"geomint: error: {problem}", file=sys.stderr)
             return BAD_INPUT
     if args.command == "list":
         return list_all()
-    if args.command in (None, "drift"):
-        steps = getattr(args, "steps", 200_000)
-        h = getattr(args, "h", 0.05)
-        eps = getattr(args, "eps", 0.1)
-        if eps < 0:
+    if args.command == "drift":
+        if args.eps < 0:
             print("geomint: error: --eps must be >= 0", file=sys.stderr)
             return BAD_INPUT
-        return drift(steps, h, eps)
+        return drift(args.steps, args.h, args.eps)
     return BAD_INPUT
 
 

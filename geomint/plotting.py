@@ -1,12 +1,25 @@
-"""Figures of scene results (matplotlib, imported lazily with the Agg backend).
+"""Figures of solutions and scene results (matplotlib, imported lazily with the Agg backend).
 
-``draw(result, directory)`` writes every figure the scene asks for
-(``geomint.scene.FIGURES``) as ``<name>.<figure>.png``.  The 3-D panel shows
-the level surface ``H = H0`` of each distinct initial energy (at most three),
-the trajectories on it (start marked), and the equilibria of the simulated
-field on it, found and classified by ``geomint.analysis.equilibria``:
-filled = stable, open = unstable, grey = neutral; a curve of equilibria is drawn
-as a line.  ``continuation_figure`` plots the eigenvalue real parts of a
+Functions that take any ``Solution`` (or a list of them, one line each, with
+a key for every line; up to 20 distinct styles from ``style``):
+
+- ``level_surface(system, solutions)``: trajectories on the level surface ``H = H0``
+  in 3-D with the equilibria of the field on it (filled = stable, open =
+  unstable, grey = neutral; a curve of equilibria drawn as a curve; those
+  behind the surface are left out and counted in the key); failed
+  trajectories end in a red cross and are counted in the title; on an
+  unbounded level set the axes fit the trajectories and the surface is
+  clipped to them.
+- ``energy_error(solutions)``: the running maximum of ``|H - H0| / |H0|`` (log scale).
+- ``casimir(solutions)``: ``S(t)`` with every rise beyond round-off marked.
+- ``drift(solutions)``: windowed maxima of the energy error with the fitted growth law
+  (``drift_windows`` for maxima already taken, e.g. of runs too long to keep).
+- ``work_precision(curves)``: global error against cost (``geomint.diagnostics.work_precision``).
+
+Each returns the axis it drew on (a new figure's when ``ax`` is None).
+``draw(result, directory)`` writes a scene's figures (``geomint.scene.FIGURES``)
+as ``<name>.<figure>.png``.
+``continuation_figure`` plots the eigenvalue real parts of a
 ``geomint.continuation.continuation`` against eps.
 """
 
@@ -14,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import diagnostics as _diagnostics
 from . import level_set as _level_set
 
 _EQUILIBRIUM_STYLE = {
@@ -21,7 +35,13 @@ _EQUILIBRIUM_STYLE = {
     "unstable": dict(marker="o", s=46, facecolor="white", edgecolor="crimson", linewidths=1.6),
     "neutral": dict(marker="D", s=36, facecolor="grey", edgecolor="black"),
 }
+_CURVE_COLOR = {"stable": "black", "unstable": "crimson", "neutral": "grey"}
 _MAX_SURFACES = 3
+_MARKERS = ("o", "s", "^", "v", "D", "P", "X", "<", ">", "*")
+_LINESTYLES = ("-", "--", ":", "-.")
+_TINY = _diagnostics.EPS / 8  # where exact zeros of an error sit on a log axis
+_CURVE_POINTS = 6  # this many equilibria of one kind, evenly spaced, are drawn as a curve
+_FAR = 1e3  # H < H0 this many mesh radii out: the level set is unbounded
 
 
 def _pyplot():
@@ -33,6 +53,362 @@ def _pyplot():
     return plt
 
 
+def style(i, n=1):
+    """Line style of the ``i``-th of ``n`` lines: colour, line style and marker, distinct up to 40.
+
+    Lines 1-10 get the 10 colours of ``tab10``, solid; lines 11-20 the same
+    colours dashed, and so on; the marker shifts by one every 10 lines, so
+    colour and marker alone still tell 20 lines apart when a caller sets the
+    line style itself.
+    """
+    plt = _pyplot()
+    colors = plt.get_cmap("tab10").colors
+    return dict(color=colors[i % 10], linestyle=_LINESTYLES[(i // 10) % len(_LINESTYLES)],
+                marker=_MARKERS[(i + i // 10) % len(_MARKERS)] if n > 1 else None)
+
+
+def _as_list(solutions):
+    return list(solutions) if isinstance(solutions, (list, tuple)) else [solutions]
+
+
+def _labels(solutions, labels):
+    """One key per line: the given labels, else the method (if methods differ) and/or the initial state;
+    a failed run's key says where it stopped."""
+    if labels is not None:
+        if len(labels) != len(solutions):
+            raise ValueError(f"`labels` must give one label per solution ({len(solutions)}); got {len(labels)}.")
+        names = list(labels)
+    else:
+        methods = [getattr(sol.method, "name", str(sol.method)) for sol in solutions]
+        starts = ["x0 = (" + ", ".join(f"{v:.3g}" for v in sol.x[0]) + ")" for sol in solutions]
+        if len(set(methods)) == len(methods):
+            names = methods
+        elif len(set(methods)) == 1:
+            names = starts
+        else:
+            names = [f"{method}, {start}" for method, start in zip(methods, starts)]
+    return [name if sol.success else f"{name} failed, t = {sol.t_final:.3g}"
+            for sol, name in zip(solutions, names)]
+
+
+def _new_axis(ax, projection=None):
+    if ax is not None:
+        return ax
+    fig = _pyplot().figure(figsize=(7.5, 5.0) if projection is None else (7.5, 7.0))
+    return fig.add_subplot(projection=projection)
+
+
+def _failed(solutions):
+    return [sol for sol in solutions if not sol.success]
+
+
+# -- the level surface --------------------------------------------------------------------
+def level_surface(system, solutions, ax=None, *, labels=None, center=None, view=(30.0, -60.0), sections=(),
+                  legend=True):
+    """Trajectories on the level surfaces ``H = H0`` (the distinct initial energies, at most 3) in 3-D.
+
+    Parameters
+    ----------
+    system : MetriplecticSystem
+        The simulated system (its field decides the equilibria).
+    solutions : Solution or list of Solution
+    ax : 3-D axis, optional
+    labels : list of str, optional
+        One per solution; default: the methods, or the initial states.
+    center : (3,) array, optional
+        Centre of the rays that mesh the surface (default: the minimiser of H).
+    view : (elevation, azimuth) in degrees
+    sections : sequence of (a, b, c, d)
+        Planes ``a x + b y + c z = d`` whose intersections with the surface are drawn.
+    legend : bool
+        Draw the key on ``ax`` (a caller may place one itself).
+    """
+    solutions = _as_list(solutions)
+    ax = _new_axis(ax, "3d")
+    ax.view_init(*view)
+    center = _level_set.energy_minimiser(system) if center is None else np.asarray(center, dtype=np.float64)
+    paths = np.vstack([sol.x for sol in solutions])
+    box = _fitted_box(paths)
+    eye = _eye(view)
+    behind = 0
+    for H0 in _distinct_energies(solutions):
+        surface = _surface(system, H0, center, box)
+        if surface is None:
+            continue
+        box = _union_if_bounded(system, H0, center, box, surface)
+        ax.plot_surface(*_clip(surface, box), color="steelblue", alpha=0.12, linewidth=0.2,
+                        edgecolor="lightsteelblue", shade=False, rstride=2, cstride=2)
+        for plane in sections:
+            for curve in _level_set.section(system, H0, center, plane):
+                ax.plot(*_clip_points(curve, box).T, color="darkorange", linewidth=1.4, linestyle="--",
+                        label="plane section" if plane == sections[0] else None)
+        behind += _draw_equilibria(ax, system, H0, center, eye, box)
+    if behind:
+        ax.plot([], [], " ", label=f"({behind} {'equilibrium' if behind == 1 else 'equilibria'} hidden behind the surface)")
+    names = _labels(solutions, labels)
+    for i, (sol, name) in enumerate(zip(solutions, names)):
+        line = style(i)
+        ax.plot(sol.x[:, 0], sol.x[:, 1], sol.x[:, 2], color=line["color"], linestyle=line["linestyle"],
+                linewidth=1.1, label=name)
+        ax.scatter(*sol.x[0], color=line["color"], marker="^", s=22, depthshade=False)
+    failed = _failed(solutions)
+    if failed:
+        ends = np.array([sol.x_final for sol in failed])
+        ax.scatter(*ends.T, color="red", marker="X", s=70, depthshade=False, zorder=6,
+                   label=f"failed: last state reached ({len(failed)})")
+    ax.scatter([], [], color="grey", marker="^", s=22, label="initial states")
+    ax.set_xlabel("x")
+    ax.set_ylabel("y")
+    ax.set_zlabel("z")
+    ax.set_box_aspect((1.0, 1.0, 1.0))
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+        axis.set_major_locator(_pyplot().MaxNLocator(5))
+    _set_limits(ax, box)
+    if legend:
+        ax.legend(loc="upper left", fontsize=7, ncol=1 if len(solutions) <= 8 else 2)
+    count = f"; {len(failed)} of {len(solutions)} failed" if failed else ""
+    levels = ", ".join(f"{H0:.4g}" for H0 in _distinct_energies(solutions))
+    ax.set_title(f"trajectories on H = {levels}{count}", fontsize=10, color="red" if failed else "black")
+    return ax
+
+
+def _distinct_energies(solutions):
+    energies = []
+    for sol in solutions:
+        H0 = float(sol.H[0])
+        if all(abs(H0 - E) > 1e-9 * max(abs(E), 1.0) for E in energies):
+            energies.append(H0)
+    return energies[:_MAX_SURFACES]
+
+
+def _surface(system, H0, center, box):
+    """The mesh of ``H = H0`` as an ``(m, n, 3)`` array, or None when it cannot be meshed from ``center``."""
+    try:
+        X, Y, Z = _level_set.mesh(system, H0, center)
+    except ValueError:  # not star-shaped about the centre, or unbounded along a ray: trajectories only
+        return None
+    return np.stack([X, Y, Z], axis=-1)
+
+
+def _fitted_box(points, margin=0.08):
+    """``(low, high)``: the bounding box of ``points`` grown by ``margin`` of its largest side."""
+    low, high = points.min(axis=0), points.max(axis=0)
+    pad = margin * max(float(np.max(high - low)), 1e-12 * max(1.0, float(np.max(np.abs(points)))))
+    return low - pad, high + pad
+
+
+def _union_if_bounded(system, H0, center, box, surface):
+    """The box of the trajectories and the surface (grown a little, so that points on the surface
+    between mesh nodes stay inside); on an unbounded level set, the trajectories' box, grown."""
+    flat = surface.reshape(-1, 3)
+    flat = flat[np.all(np.isfinite(flat), axis=1)]
+    if not _unbounded(system, H0, center, flat):
+        return _fitted_box(np.vstack([flat, box[0], box[1]]), margin=0.03)
+    middle = 0.5 * (box[0] + box[1])
+    half = 0.6 * max(float(np.max(box[1] - box[0])), 1e-12)
+    return middle - half, middle + half
+
+
+def _unbounded(system, H0, center, mesh_points):
+    """Whether ``H < H0`` somewhere far out (``_FAR`` times the mesh's median radius): then the level
+    set is unbounded, and the ray mesh reaches out only as far as its rays happen to meet it."""
+    radius = float(np.median(np.linalg.norm(mesh_points - center, axis=1)))
+    directions = np.vstack([np.eye(3), -np.eye(3), _level_set.fibonacci_directions(400)])
+    return bool(np.any(system.H(center + _FAR * radius * directions) < H0))
+
+
+def _inside(points, box):
+    return np.all((points >= box[0]) & (points <= box[1]), axis=-1)
+
+
+def _clip(surface, box):
+    """``X, Y, Z`` of the surface with the points outside ``box`` set to NaN (not drawn)."""
+    clipped = np.where(_inside(surface, box)[..., None], surface, np.nan)
+    return clipped[..., 0], clipped[..., 1], clipped[..., 2]
+
+
+def _clip_points(points, box):
+    return np.where(_inside(points, box)[:, None], points, np.nan)
+
+
+def _eye(view):
+    """Unit vector from the scene towards the viewer for matplotlib's ``(elevation, azimuth)``."""
+    elevation, azimuth = np.radians(view)
+    return np.array([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), np.sin(elevation)])
+
+
+def _draw_equilibria(ax, system, H0, center, eye, box):
+    """Equilibria on the visible side of the surface (points, or the visible part of a curve).
+
+    Returns how many isolated equilibria lie behind the surface (left out).
+    """
+    found = [(x, kind) for x, kind in _level_set.equilibria(system, H0, center) if _inside(x, box)]
+    behind = 0
+    for kind in ("stable", "unstable", "neutral"):
+        points = np.array([x for x, k in found if k == kind]).reshape(-1, 3)
+        if points.size == 0:
+            continue
+        drawn = set(ax.get_legend_handles_labels()[1])
+        ordered = _chain(points) if len(points) >= _CURVE_POINTS else None
+        if ordered is not None:
+            label = f"curve of {kind} equilibria"
+            visible = np.where((((ordered - center) @ eye) >= 0.0)[:, None], ordered, np.nan)
+            ax.plot(*visible.T, color=_CURVE_COLOR[kind], linewidth=2.6, zorder=5,
+                    label=None if label in drawn else label)
+            continue
+        front = (points - center) @ eye >= 0.0
+        behind += int(np.count_nonzero(~front))
+        label = f"{kind} equilibrium"
+        if np.any(front):
+            ax.scatter(*points[front].T, depthshade=False, zorder=5, label=None if label in drawn else label,
+                       **_EQUILIBRIUM_STYLE[kind])
+    return behind
+
+
+def _chain(points):
+    """The points in nearest-neighbour order as a polyline (closed when the ends are close, NaN across gaps),
+    or None when they are isolated points rather than samples of a curve (median step > 15% of their spread)."""
+    left = list(range(1, len(points)))
+    order = [0]
+    while left:
+        last = points[order[-1]]
+        nearest = min(left, key=lambda j: np.linalg.norm(points[j] - last))
+        order.append(nearest)
+        left.remove(nearest)
+    path = points[order]
+    steps = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    step = float(np.median(steps))
+    if step > 0.15 * float(np.max(np.ptp(points, axis=0))):
+        return None
+    if np.linalg.norm(path[-1] - path[0]) <= 2.0 * step:
+        path = np.vstack([path, path[:1]])
+        steps = np.append(steps, np.linalg.norm(path[-1] - path[-2]))
+    pieces = np.split(path, np.flatnonzero(steps > 4.0 * step) + 1)
+    return np.vstack([np.vstack([piece, np.full((1, 3), np.nan)]) for piece in pieces])[:-1]
+
+
+def _set_limits(ax, box):
+    """Equal scales on the three axes: a cube around ``box``."""
+    mid, half = 0.5 * (box[0] + box[1]), 0.5 * float(np.max(box[1] - box[0]))
+    ax.set_xlim(mid[0] - half, mid[0] + half)
+    ax.set_ylim(mid[1] - half, mid[1] + half)
+    ax.set_zlim(mid[2] - half, mid[2] + half)
+
+
+# -- invariants over time -----------------------------------------------------------------
+def energy_error(solutions, ax=None, *, labels=None, legend=True):
+    """The running maximum of ``|H - H0| / |H0|`` against t, log scale; machine epsilon marked.
+
+    Exact zeros are drawn at ``eps / 8``, the bottom of the axis.
+    """
+    solutions = _as_list(solutions)
+    ax = _new_axis(ax)
+    for i, (sol, name) in enumerate(zip(solutions, _labels(solutions, labels))):
+        running = np.maximum.accumulate(_diagnostics.energy_error(sol))
+        line = style(i, len(solutions))
+        ax.semilogy(sol.t, np.maximum(running, _TINY), color=line["color"], linestyle=line["linestyle"],
+                    linewidth=1.2, label=name, drawstyle="steps-post")
+    eps = _diagnostics.EPS
+    ax.axhline(eps, color="0.4", linewidth=0.9, linestyle=":", label="machine epsilon")
+    worst = max(float(_diagnostics.energy_error(sol).max()) for sol in solutions)
+    top = max(worst * 4, eps * 4)
+    ax.set_ylim(_TINY / 1.5, top)
+    return _finish(ax, "t", "running max |H - H0| / |H0|",
+                   f"energy: max |H - H0|/|H0| = {worst:.2g} ({worst / eps:.3g} eps)", legend and "lower right",
+                   len(solutions))
+
+
+def casimir(solutions, ax=None, *, labels=None, legend=True):
+    """``S(t)``, one line per solution; every saved step where S rose beyond round-off is marked."""
+    solutions = _as_list(solutions)
+    ax = _new_axis(ax)
+    rises = 0
+    for i, (sol, name) in enumerate(zip(solutions, _labels(solutions, labels))):
+        line = style(i, len(solutions))
+        ax.plot(sol.t, sol.S, color=line["color"], linestyle=line["linestyle"], linewidth=1.2, label=name)
+        up = _diagnostics.S_rises(sol) + 1
+        rises += len(up)
+        ax.scatter(sol.t[up], sol.S[up], color="red", marker="x", s=18, zorder=4)
+    if rises:
+        ax.scatter([], [], color="red", marker="x", s=18, label="S rose (beyond 16 ulps)")
+    return _finish(ax, "t", "S", f"Casimir S: {rises} {'rise' if rises == 1 else 'rises'} beyond round-off", legend and "upper right",
+                   len(solutions), "red" if rises else "black")
+
+
+def drift(solutions, ax=None, *, labels=None, count=20, t_min=None, legend=True):
+    """Windowed maxima of ``|H - H0| / |H0|`` on log-log axes, each key with its fitted growth law.
+
+    ``count`` log-spaced windows (``geomint.diagnostics.windowed_drift``); the
+    law ``max ~ C t^p`` is fitted for ``t >= t_min`` (default: a tenth of the run).
+    """
+    solutions = _as_list(solutions)
+    series, short = [], []
+    for sol, name in zip(solutions, _labels(solutions, labels)):
+        if len(sol.t) < 3:  # a run that failed at once has no drift to show
+            short.append(name)
+            continue
+        centers, maxima = _diagnostics.windowed_drift(sol, count)
+        series.append((name, centers, maxima, 0.1 * (sol.t[-1] - sol.t[0]) if t_min is None else t_min))
+    ax = _new_axis(ax)
+    for name in short:
+        ax.plot([], [], " ", label=f"{name}: fewer than 3 saved states, not drawn")
+    return drift_windows(series, ax, legend=legend)
+
+
+def drift_windows(series, ax=None, *, legend=True, law_in_key=True, linestyles=None):
+    """``drift`` for maxima already taken: ``series`` holds ``(label, centers, maxima, t_min)`` per line.
+
+    For long runs summarised chunk by chunk in a ``geomint.diagnostics.Windows``.
+    ``law_in_key=False`` keys lines by label alone (a key shared by panels of
+    different problems); ``linestyles`` (one per line) overrides the styles'
+    line styles, e.g. to tell two kinds of method apart.
+    """
+    ax = _new_axis(ax)
+    for i, (name, centers, maxima, t_min) in enumerate(series):
+        p, law = _diagnostics.growth_law(centers, maxima, t_min)
+        keep = np.isfinite(maxima)
+        line = style(i, len(series))
+        if linestyles is not None:
+            line["linestyle"] = linestyles[i]
+        fit = f": {law}" + (f" (p = {p:.2f})" if np.isfinite(p) else "") if law_in_key else ""
+        ax.loglog(centers[keep], np.maximum(maxima[keep], _TINY), markersize=4, linewidth=1.2, label=name + fit,
+                  **line)
+    ax.axhline(_diagnostics.EPS, color="0.4", linewidth=0.9, linestyle=":", label="machine epsilon")
+    return _finish(ax, "t", "windowed max |H - H0| / |H0|", "energy drift: windowed maxima and growth law (zeros at eps/8)",
+                   legend and "best", len(series))
+
+
+def work_precision(curves, ax=None, *, cost="wall", legend=True):
+    """Global error against cost for ``geomint.diagnostics.Curve`` objects, one line and key each.
+
+    ``cost`` is ``"wall"`` (median seconds) or ``"nfev"`` (field evaluations).
+    Structure-preserving methods (exact H, S never rising) are drawn solid.
+    """
+    if cost not in ("wall", "nfev"):
+        raise ValueError(f"`cost` must be \"wall\" or \"nfev\"; got {cost!r}.")
+    curves = _as_list(curves)
+    ax = _new_axis(ax)
+    for i, curve in enumerate(curves):
+        line = style(i, len(curves))
+        line["linestyle"] = "-" if curve.structure_preserving else "--"
+        ax.loglog(getattr(curve, cost), curve.error, markersize=4, linewidth=1.2, label=curve.label, **line)
+    return _finish(ax, "wall time [s] (median)" if cost == "wall" else "field evaluations",
+                   "global error |x(T) - x_ref(T)|", "work-precision (solid: exact H and monotone S)",
+                   legend and "lower left", len(curves))
+
+
+def _finish(ax, xlabel, ylabel, title, legend_at, lines, title_color="black"):
+    """Labels, title, grid, and the key at ``legend_at`` (none when falsy; two columns past 10 lines)."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=10, color=title_color)
+    ax.grid(True, which="major", linewidth=0.4, alpha=0.6)
+    if legend_at:
+        ax.legend(loc=legend_at, fontsize=7, ncol=1 if lines <= 10 else 2)
+    return ax
+
+
+# -- scene figures ------------------------------------------------------------------------
 def draw(result, directory):
     """Write the scene's figures under ``directory``; returns their paths."""
     plt = _pyplot()
@@ -47,30 +423,78 @@ def draw(result, directory):
     return paths
 
 
+def trajectories(result, ax, legend=True):
+    """A scene's trajectories on its level surfaces (``level_surface`` with the scene's centre, view, sections)."""
+    return level_surface(result.system, result.solutions, ax, labels=_scene_labels(result), center=_center(result),
+                         view=result.scene.view, sections=result.scene.sections, legend=legend)
+
+
+def invariants(result, ax_H, ax_S, legend=True):
+    """A scene's energy error and S against t (``energy_error`` and ``casimir``)."""
+    labels = _scene_labels(result)
+    energy_error(result.solutions, ax_H, labels=labels, legend=legend)
+    casimir(result.solutions, ax_S, labels=labels, legend=legend)
+    ax_H.set_xlabel("")
+
+
 def _overview(plt, result):
-    fig = plt.figure(figsize=(12.0, 6.4))
-    grid = fig.add_gridspec(2, 2, width_ratios=(1.1, 1.0), hspace=0.4, wspace=0.12, left=0.0, right=0.97,
+    fig = plt.figure(figsize=(14.5, 6.6))
+    grid = fig.add_gridspec(2, 3, width_ratios=(1.05, 1.0, 0.62), hspace=0.42, wspace=0.25, left=0.0, right=0.99,
                             top=0.86, bottom=0.09)
-    trajectories(result, fig.add_subplot(grid[:, 0], projection="3d"))
-    invariants(result, fig.add_subplot(grid[0, 1]), fig.add_subplot(grid[1, 1]))
+    ax3d = fig.add_subplot(grid[:, 0], projection="3d")
+    trajectories(result, ax3d, legend=False)
+    ax_H, ax_S = fig.add_subplot(grid[0, 1]), fig.add_subplot(grid[1, 1])
+    invariants(result, ax_H, ax_S, legend=False)
+    _shared_key(fig, grid[:, 2], [ax3d, ax_H, ax_S])
     fig.suptitle(_title(result), fontsize=11)
     return fig
 
 
+def _shared_key(fig, cell, axes):
+    """One key for the panels: every labelled line and marker, once."""
+    handles, labels = {}, []
+    for ax in axes:
+        for handle, label in zip(*ax.get_legend_handles_labels()):
+            if label not in handles:
+                handles[label] = handle
+                labels.append(label)
+    key = fig.add_subplot(cell)
+    key.axis("off")
+    key.legend([handles[label] for label in labels], labels, loc="center left", fontsize=7, frameon=False)
+
+
 def _trajectories_figure(plt, result):
-    fig = plt.figure(figsize=(7.5, 7.0))
-    fig.subplots_adjust(left=0.0, right=0.95, top=0.88, bottom=0.04)
-    trajectories(result, fig.add_subplot(projection="3d"))
+    fig = plt.figure(figsize=(10.5, 7.0))
+    grid = fig.add_gridspec(1, 2, width_ratios=(1.0, 0.45), left=0.0, right=0.99, top=0.88, bottom=0.04)
+    ax = fig.add_subplot(grid[0, 0], projection="3d")
+    trajectories(result, ax, legend=False)
+    _shared_key(fig, grid[0, 1], [ax])
     fig.suptitle(_title(result), fontsize=11)
     return fig
 
 
 def _invariants_figure(plt, result):
-    fig, (ax_H, ax_S) = plt.subplots(2, 1, figsize=(7.5, 6.4), sharex=True)
-    fig.subplots_adjust(top=0.84, hspace=0.3)
-    invariants(result, ax_H, ax_S)
+    fig = plt.figure(figsize=(10.5, 6.4))
+    grid = fig.add_gridspec(2, 2, width_ratios=(1.0, 0.45), hspace=0.3, left=0.08, right=0.99, top=0.84)
+    ax_H, ax_S = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[1, 0])
+    invariants(result, ax_H, ax_S, legend=False)
+    _shared_key(fig, grid[:, 1], [ax_H, ax_S])
     fig.suptitle(_title(result), fontsize=11)
     return fig
+
+
+def _drift_figure(plt, result):
+    fig = plt.figure(figsize=(10.5, 5.0))
+    grid = fig.add_gridspec(1, 2, width_ratios=(1.0, 0.5), left=0.1, right=0.99, top=0.8)
+    ax = fig.add_subplot(grid[0, 0])
+    drift(result.solutions, ax, labels=_scene_labels(result), legend=False)
+    _shared_key(fig, grid[0, 1], [ax])
+    fig.suptitle(_title(result), fontsize=11)
+    return fig
+
+
+def _scene_labels(result):
+    return ["x0 = (" + ", ".join(f"{v:.3g}" for v in sol.x[0]) + ")" for sol in result.solutions]
 
 
 def _title(result):
@@ -81,53 +505,15 @@ def _title(result):
             f"{result.method.name}, h = {scene.h:g}")
 
 
-def trajectories(result, ax):
-    """Level surfaces, trajectories and equilibria on a 3-D axis."""
-    system = result.system
-    center = _center(result)
-    drawn = [sol.x for sol in result.solutions]
-    for H0 in _distinct_energies(result):
-        X, Y, Z = _level_set.mesh(system, H0, center)
-        drawn.append(np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1))
-        for plane in result.scene.sections:
-            for curve in _level_set.section(system, H0, center, plane):
-                ax.plot(*curve.T, color="darkorange", linewidth=1.4, linestyle="--",
-                        label="plane section" if plane == result.scene.sections[0] else None)
-        ax.plot_surface(X, Y, Z, color="steelblue", alpha=0.12, linewidth=0.2, edgecolor="lightsteelblue",
-                        shade=False, rstride=2, cstride=2)
-        _equilibria(ax, system, H0, center)
-    colors = _colors(len(result.solutions))
-    for i, sol in enumerate(result.solutions):
-        ax.plot(sol.x[:, 0], sol.x[:, 1], sol.x[:, 2], color=colors[i], linewidth=1.1)
-        ax.scatter(*sol.x[0], color=colors[i], marker="^", s=22, depthshade=False,
-                   label="initial state" if i == 0 else None)
-    ax.set_xlabel("x")
-    ax.set_ylabel("y")
-    ax.set_zlabel("z")
-    ax.set_box_aspect((1.0, 1.0, 1.0))
-    ax.view_init(*result.scene.view)
-    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
-        axis.set_major_locator(_pyplot().MaxNLocator(5))
-    _equal_limits(ax, np.vstack(drawn))
-    ax.legend(loc="upper left", fontsize=8)
-    ax.set_title("trajectories on H = H0", fontsize=10)
+def _center(result):
+    level_set = result.scene.level_set
+    if level_set is not None and level_set.get("center") is not None:
+        return np.array(level_set["center"], dtype=np.float64)
+    return _level_set.energy_minimiser(result.system)
 
 
-def _equilibria(ax, system, H0, center):
-    from . import analysis
-
-    marked = set()
-    for found in analysis.equilibria(system, H0, "xi", center):
-        kind, curve = found.verdict, isinstance(found, analysis.EquilibriumCurve)
-        label = f"{kind} equilibri{'a (curve)' if curve else 'um'}"
-        label = label if label not in marked else None
-        marked.add(label)
-        if curve:
-            points = np.vstack([found.points, found.points[:1]]) if found.closed else found.points
-            color = _EQUILIBRIUM_STYLE.get(kind, _EQUILIBRIUM_STYLE["neutral"])["edgecolor"]
-            ax.plot(*points.T, color=color, linewidth=2.4, zorder=5, label=label)
-        else:
-            ax.scatter(*found.x, depthshade=False, zorder=5, label=label, **_EQUILIBRIUM_STYLE[kind])
+_FIGURES = {"overview": _overview, "trajectories": _trajectories_figure, "invariants": _invariants_figure,
+            "drift": _drift_figure}
 
 
 def continuation_figure(results, path=None, columns=3):
@@ -159,7 +545,7 @@ def continuation_figure(results, path=None, columns=3):
     rows = -(-len(results) // columns)
     fig, axes = plt.subplots(rows, columns, figsize=(4.6 * columns, 3.6 * rows), squeeze=False)
     for ax, result in zip(axes.ravel(), results):
-        colors = _colors(len(result.branches))
+        colors = plt.get_cmap("tab20")(np.arange(len(result.branches)) % 20)
         for color, branch in zip(colors, result.branches):
             real = branch.eigenvalues.real
             style = ":" if branch.object == "cycle" else "-"
@@ -184,57 +570,3 @@ def continuation_figure(results, path=None, columns=3):
     if path is not None:
         fig.savefig(path, dpi=130)
     return fig
-
-
-def invariants(result, ax_H, ax_S):
-    """``(H - H0)/|H0|`` and ``S`` against t, one line per trajectory."""
-    colors = _colors(len(result.solutions))
-    for i, sol in enumerate(result.solutions):
-        scale = abs(sol.H[0]) or 1.0
-        ax_H.plot(sol.t, (sol.H - sol.H[0]) / scale, color=colors[i], linewidth=1.0)
-        ax_S.plot(sol.t, sol.S, color=colors[i], linewidth=1.0)
-    eps = np.finfo(np.float64).eps
-    ax_H.axhspan(-eps, eps, color="0.85", zorder=0, label="|error| < machine eps")
-    worst = max(sol.energy_error for sol in result.solutions)
-    ax_H.set_ylabel("(H - H0) / |H0|")
-    ax_H.set_title(f"energy: max |H - H0|/|H0| = {worst:.2g} ({worst / eps:.1f} eps)", fontsize=10)
-    ax_H.legend(loc="upper right", fontsize=8)
-    rises = sum(sol.S_rises for sol in result.solutions)
-    ax_S.set_ylabel("S")
-    ax_S.set_xlabel("t")
-    ax_S.set_title(f"Casimir S: {rises} rises beyond round-off", fontsize=10)
-    for ax in (ax_H, ax_S):
-        ax.grid(True, linewidth=0.4, alpha=0.6)
-
-
-def _distinct_energies(result):
-    energies = []
-    for sol in result.solutions:
-        H0 = float(sol.H[0])
-        if all(abs(H0 - E) > 1e-9 * max(abs(E), 1.0) for E in energies):
-            energies.append(H0)
-    return energies[:_MAX_SURFACES]
-
-
-def _center(result):
-    level_set = result.scene.level_set
-    if level_set is not None and level_set.get("center") is not None:
-        return np.array(level_set["center"], dtype=np.float64)
-    return _level_set.energy_minimiser(result.system)
-
-
-def _equal_limits(ax, points):
-    """Equal scales on the three axes: a cube around the bounding box of ``points``."""
-    lo, hi = points.min(axis=0), points.max(axis=0)
-    mid, half = 0.5 * (lo + hi), 0.525 * float(np.max(hi - lo))
-    ax.set_xlim(mid[0] - half, mid[0] + half)
-    ax.set_ylim(mid[1] - half, mid[1] + half)
-    ax.set_zlim(mid[2] - half, mid[2] + half)
-
-
-def _colors(n):
-    plt = _pyplot()
-    return plt.get_cmap("viridis")(np.linspace(0.0, 0.9, max(n, 1)))
-
-
-_FIGURES = {"overview": _overview, "trajectories": _trajectories_figure, "invariants": _invariants_figure}

@@ -1,9 +1,9 @@
 """Scenes: declarative runs that compute only what they call for.
 
-A scene names a catalogue system and its parameters, the effects to simulate,
-the initial states, the integrator and what to record and draw.  As a TOML
-file (read with the standard library's ``tomllib``; nothing in it is evaluated
-as Python)::
+A scene names a catalogue system (or writes one as formulas) and its
+parameters, the effects to simulate, the initial states, the integrator and
+what to record and draw.  As a TOML file (read with the standard library's
+``tomllib``; nothing in it is evaluated as Python)::
 
     title = "Relaxing rigid body, a, b, c distinct"
 
@@ -29,6 +29,27 @@ as Python)::
     every = 5                  # save every 5th state; "final": initial and final only
     figures = ["overview"]
 
+A system written as formulas (``geomint.expressions``: a whitelist grammar of
+numbers, x, y, z, parameter names, + - * / ** and exp, log, sin, cosh, ...;
+formulas are parsed, never evaluated) replaces ``name`` by ``H``, ``S`` and
+``J`` (3 formulas) or ``P`` (3x3 formulas); ``name`` is then a label::
+
+    [system]
+    name = "lorenz_nevir"
+    H = "(y**2 + z**2)/2 - r*z"
+    S = "x**2/2 - sigma*z"
+    J = ["-x", "0", "sigma"]
+    parameters = { sigma = 10.0, r = 28.0 }
+
+Every integrator can be named, with its options as further keys of
+``[integrator]`` (or in a table ``method = { name = ..., ... }``);
+sub-integrators are names or tables themselves (``geomint.method_data``)::
+
+    method = "yoshida4"                      # a composition ...
+    base = "symmetrized_itoh_abe"            # ... of the symmetrized Itoh-Abe step
+    # method = "strang", hamiltonian_part = "rigid_body_flow", gradient_part = "gonzalez"
+    # method = { name = "projected", method = "rk4", symmetric = false }
+
 What is off is not computed: ``hamiltonian = false`` runs kernels that never
 call ``J``; ``eps = 0`` runs kernels that never call ``grad S``
 (``MetriplecticSystem.with_effects``); observables not in ``record`` are
@@ -36,9 +57,9 @@ neither computed nor stored, and ``every = "final"`` runs in constant memory.
 """
 
 import dataclasses
-import importlib
 import inspect
 import math
+import re
 import time
 import tomllib
 from dataclasses import dataclass, field
@@ -47,8 +68,11 @@ from pathlib import Path
 import numpy as np
 
 from . import level_set as _level_set
-from .integrators import resolve
+from . import diagnostics as _diagnostics
+from . import expressions as _expressions
+from .method_data import MethodDataError, method_from_data, method_to_data
 from .solve import solve, step_count
+from .system import MetriplecticSystem
 from .systems import CATALOGUE
 
 
@@ -66,8 +90,7 @@ OBSERVABLES = {
     "x": ("state, (rows, 3)", lambda system, sol: sol.x),
     "H": ("energy", lambda system, sol: sol.H),
     "S": ("Casimir", lambda system, sol: sol.S),
-    "energy_error": ("|H - H0| / |H0| (absolute when H0 = 0)",
-                     lambda system, sol: np.abs(sol.H - sol.H[0]) / (abs(sol.H[0]) or 1.0)),
+    "energy_error": ("|H - H0| / |H0| (absolute when H0 = 0)", lambda system, sol: _diagnostics.energy_error(sol)),
     "sigma": ("sigma = grad S x grad H, (rows, 3)", lambda system, sol: system.sigma(sol.x)),
     "dS_dt": ("dS/dt = -eps |sigma|^2", lambda system, sol: system.dS_dt(sol.x)),
     "xi": ("the simulated field, (rows, 3)", lambda system, sol: system.xi(sol.x)),
@@ -78,12 +101,14 @@ FIGURES = {
     "overview": "trajectories on the level surface of H in 3-D, with H(t) and S(t) panels",
     "trajectories": "trajectories on the level surface of H in 3-D, equilibria marked",
     "invariants": "relative energy error and S against t",
+    "drift": "windowed maxima of the energy error against t (log-log) with the fitted growth law",
 }
 
 # section -> key in the file -> Scene field; "" is the top level
 _LAYOUT = {
     "": {"title": "title", "description": "description"},
-    "system": {"name": "system", "parameters": "parameters"},
+    "system": {"name": "system", "parameters": "parameters", "H": "expressions", "S": "expressions",
+               "J": "expressions", "P": "expressions"},
     "effects": {"hamiltonian": "hamiltonian", "eps": "eps", "projection": "projection"},
     "initial": {"points": "points", "level_set": "level_set"},
     "integrator": {"method": "integrator", "h": "h", "duration": "duration"},
@@ -91,7 +116,10 @@ _LAYOUT = {
 }
 _KEY_OF = {name: (f"{section}.{key}" if section else key) for section, keys in _LAYOUT.items()
            for key, name in keys.items()}
+_KEY_OF["expressions"] = "system"
 _LEVEL_SET_KEYS = ("H0", "n", "center")
+_EXPRESSION_KEYS = ("H", "S", "J", "P")
+_LABEL = re.compile(r"[A-Za-z][A-Za-z0-9_.-]{0,99}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,9 +129,14 @@ class Scene:
     Parameters
     ----------
     system : str
-        A name in ``geomint.systems.CATALOGUE``.
+        A name in ``geomint.systems.CATALOGUE``; with ``expressions``, a label
+        (letters, digits, ``_ . -``).
     parameters : dict
-        Keyword arguments of the catalogue function except ``eps``.
+        Keyword arguments of the catalogue function except ``eps``; with
+        ``expressions``, the formulas' parameters ``{name: value}``.
+    expressions : dict, optional
+        ``{"H": str, "S": str, "J": [3 str]}`` or with ``"P": [[3 str] x 3]``:
+        the system as formulas (``geomint.MetriplecticSystem.from_expressions``).
     hamiltonian : bool, default True
         Simulate the Hamiltonian part ``xi_P = grad H x J``.
     eps : float, default 1.0
@@ -118,7 +151,8 @@ class Scene:
         Give exactly one of ``points`` and ``level_set``.
     integrator : str or dict, default "gonzalez"
         A short name, or ``{"name": ..., option: value, ...}`` with the
-        integrator's options.
+        integrator's options; sub-integrators are names or such dicts
+        (``geomint.method_data.method_from_data``).
     h, duration : float
         Step size and length of the run from t = 0; both finite and > 0.
     record : sequence of str
@@ -143,6 +177,7 @@ class Scene:
     h: float
     duration: float
     parameters: dict = field(default_factory=dict)
+    expressions: dict | None = None
     hamiltonian: bool = True
     eps: float = 1.0
     projection: bool = False
@@ -162,8 +197,13 @@ class Scene:
     def __post_init__(self):
         check = _Checker(self.source)
         set_ = lambda name, value: object.__setattr__(self, name, value)  # noqa: E731 (frozen dataclass)
-        set_("system", check.choice("system", self.system, CATALOGUE, "catalogue system"))
-        set_("parameters", check.parameters(self.system, self.parameters))
+        if self.expressions is None:
+            set_("system", check.choice("system", self.system, CATALOGUE, "catalogue system"))
+            set_("parameters", check.parameters(self.system, self.parameters))
+        else:
+            set_("system", check.label("system", self.system))
+            set_("parameters", check.formula_parameters(self.parameters))
+            set_("expressions", check.expressions(self.expressions, list(self.parameters)))
         for flag in ("hamiltonian", "projection"):
             set_(flag, check.boolean(flag, getattr(self, flag)))
         set_("eps", check.real("eps", self.eps, minimum=0.0))
@@ -188,8 +228,9 @@ class Scene:
                              "integer or `output.figures = []`.")
         set_("view", check.numbers("view", self.view, 2, "angles [elevation, azimuth] in degrees"))
         set_("sections", check.planes("sections", self.sections))
-        for label in ("title", "description", "name"):
+        for label in ("title", "description"):
             set_(label, check.string(label, getattr(self, label)))
+        set_("name", check.label("name", self.name))
 
     # -- construction ----------------------------------------------------------------------
     @classmethod
@@ -211,7 +252,7 @@ class Scene:
         """A scene from the nested sections of the file form (what ``to_dict`` returns)."""
         if not isinstance(data, dict):
             raise SceneError(source, None, f"a scene must be a table of sections; got {type(data).__name__}.")
-        fields = {}
+        fields, options = {}, {}
         for key, value in data.items():
             if key in _LAYOUT[""]:
                 fields[_LAYOUT[""][key]] = value
@@ -219,13 +260,22 @@ class Scene:
                 if not isinstance(value, dict):
                     raise SceneError(source, key, f"must be a table `[{key}]`; got {_describe(value)}.")
                 for sub, subvalue in value.items():
-                    if sub not in _LAYOUT[key]:
+                    if key == "integrator" and sub not in _LAYOUT[key]:
+                        options[sub] = subvalue  # an option of the method, checked when it is built
+                    elif sub not in _LAYOUT[key]:
                         raise SceneError(source, f"{key}.{sub}",
                                          f"unknown key; `[{key}]` takes {_listing(_LAYOUT[key])}.")
-                    fields[_LAYOUT[key][sub]] = subvalue
+                    elif sub in _EXPRESSION_KEYS:
+                        fields.setdefault("expressions", {})[sub] = subvalue
+                    else:
+                        fields[_LAYOUT[key][sub]] = subvalue
             else:
                 known = [k for k in _LAYOUT[""]] + [f"[{k}]" for k in _LAYOUT if k]
                 raise SceneError(source, key, f"unknown key; a scene takes {', '.join(known)}.")
+        if options:
+            fields["integrator"] = _with_options(source, fields.get("integrator", "gonzalez"), options)
+        if "expressions" in fields:
+            fields.setdefault("system", "expressions")
         for required in dataclasses.fields(cls):
             if required.default is dataclasses.MISSING and required.default_factory is dataclasses.MISSING \
                     and required.name not in fields:
@@ -238,7 +288,15 @@ class Scene:
 
     # -- resolution --------------------------------------------------------------------------
     def build_system(self):
-        """The catalogue system with this scene's parameters and effects."""
+        """The system (catalogue or formulas) with this scene's parameters and effects."""
+        if self.expressions is not None:
+            try:
+                kwargs = _expressions.build(**self.expressions, params=self.parameters, eps=self.eps,
+                                            name=self.system, prefix="system.")
+                system = MetriplecticSystem(**kwargs)
+            except ValueError as exc:
+                raise SceneError(self.source, None, str(exc)) from None
+            return system.with_effects(hamiltonian=self.hamiltonian)
         constructor = CATALOGUE[self.system]
         try:
             system = constructor(**self.parameters, eps=self.eps)
@@ -251,30 +309,16 @@ class Scene:
         method = self._base_method()
         if not self.projection:
             return method
-        projected = getattr(importlib.import_module(__package__), "Projected", None)
-        if projected is None:
-            raise SceneError(self.source, "effects.projection",
-                             "projection is not available in this build of geomint (no geomint.Projected).")
-        return projected(method)
+        return self._method({"name": "projected", "method": method_to_data(method)}, "effects.projection")
 
     def _base_method(self):
-        options = dict(self.integrator)
-        name = options.pop("name")
-        key = _KEY_OF["integrator"]
+        return self._method(self.integrator, _KEY_OF["integrator"])
+
+    def _method(self, data, key):
         try:
-            method = resolve(name)
-        except ValueError:
-            raise SceneError(self.source, key, f"unknown integrator {name!r}; known: {_listing(_integrators())}.") \
-                from None
-        known = [f.name for f in dataclasses.fields(method)]
-        for option in options:
-            if option not in known:
-                raise SceneError(self.source, f"{key}.{option}",
-                                 f"unknown option of {name!r}; it takes {_listing(known) if known else 'none'}.")
-        try:
-            return dataclasses.replace(method, **options)
-        except (TypeError, ValueError) as exc:
-            raise SceneError(self.source, key, str(exc)) from None
+            return method_from_data(data, key)
+        except MethodDataError as exc:
+            raise SceneError(self.source, exc.key, exc.problem) from None
 
     def initial_states(self, system=None):
         """The initial states, ``(n, 3)``: the given points, or a sample of the level set."""
@@ -290,19 +334,24 @@ class Scene:
 
     def resolved(self):
         """This scene with every default written out; builds the system and method, so it validates fully."""
-        signature = inspect.signature(CATALOGUE[self.system])
-        parameters = {k: _plain(p.default) for k, p in signature.parameters.items() if k != "eps"}
-        parameters.update(self.parameters)
+        parameters = dict(self.parameters)
+        if self.expressions is None:
+            signature = inspect.signature(CATALOGUE[self.system])
+            parameters = {k: _plain(p.default) for k, p in signature.parameters.items() if k != "eps"}
+            parameters.update(self.parameters)
         system = self.replace(parameters=parameters).build_system()
-        self.build_method()
-        base = self._base_method()
-        integrator = {"name": base.name, **{f.name: getattr(base, f.name) for f in dataclasses.fields(base)}}
+        method = self.build_method()
+        integrator = method_to_data(self._base_method())
         level_set = None
         if self.level_set is not None:
             center = self.level_set.get("center")
             center = _level_set.energy_minimiser(system).tolist() if center is None else center
             level_set = {**self.level_set, "center": center}
-            self.replace(level_set=level_set).initial_states(system)
+        states = self.replace(level_set=level_set).initial_states(system)
+        try:
+            method.bind(system, states[0])
+        except (TypeError, ValueError) as exc:
+            raise SceneError(self.source, _KEY_OF["integrator"], str(exc)) from None
         return self.replace(parameters=parameters, integrator=integrator, level_set=level_set)
 
     @property
@@ -320,13 +369,15 @@ class Scene:
         out = {}
         for section, keys in _LAYOUT.items():
             table = {key: _plain(getattr(self, name)) for key, name in keys.items()
-                     if getattr(self, name) is not None}
+                     if getattr(self, name) is not None and name != "expressions"}
             if section:
                 out[section] = table
             else:
                 out.update(table)
         if isinstance(self.integrator, dict) and list(self.integrator) == ["name"]:
             out["integrator"]["method"] = self.integrator["name"]
+        if self.expressions is not None:
+            out["system"].update(_plain(self.expressions))
         return out
 
     def __eq__(self, other):
@@ -385,7 +436,7 @@ class SceneResult:
             "rows_saved_per_trajectory": int(self.records["rows"].max()),
         }
         return {
-            "scene": self.scene.to_dict(), "system": repr(self.system), "method": repr(self.method),
+            "scene": self.scene.to_dict(), "system": repr(self.system), "method": method_to_data(self.method),
             "totals": totals, "trajectories": trajectories, "versions": versions(),
             "notes": "energy_error = max |H - H0|/|H0| and S_rises (S up by more than 16 ulps) over the saved "
                      "states; energy_error_in_eps is it in units of machine epsilon.",
@@ -488,6 +539,32 @@ class _Checker:
             self.fail(name, f"must be >= {minimum:g}; got {value!r}.")
         return value
 
+    def label(self, name, value):
+        self.string(name, value)
+        if not _LABEL.fullmatch(value):
+            self.fail(name, f"must be a label of letters, digits and _ . - (it names output files), starting with a "
+                            f"letter, at most 100 characters; got {value!r}.")
+        return value
+
+    def formula_parameters(self, value):
+        try:
+            return _expressions.check_parameters(value, "system.parameters")
+        except ValueError as exc:
+            raise SceneError(self.source, None, str(exc)) from None
+
+    def expressions(self, value, parameters):
+        unknown = [k for k in value if k not in _EXPRESSION_KEYS]
+        if unknown:
+            self.fail(f"system.{unknown[0]}", f"unknown key; a system as formulas takes {_listing(_EXPRESSION_KEYS)}.")
+        for key in ("H", "S"):
+            if key not in value:
+                self.fail(f"system.{key}", "missing; a system as formulas needs H, S and one of J, P.")
+        try:
+            _expressions.parse_system(value["H"], value["S"], value.get("J"), value.get("P"), parameters, "system.")
+        except ValueError as exc:
+            raise SceneError(self.source, None, str(exc)) from None
+        return dict(value)
+
     def boolean(self, name, value):
         if not isinstance(value, (bool, np.bool_)):
             self.fail(name, f"must be true or false; got {_describe(value)}.")
@@ -587,10 +664,14 @@ class _Checker:
         return out
 
 
-def _integrators():
-    from .integrators import INTEGRATORS
-
-    return sorted(INTEGRATORS)
+def _with_options(source, method, options):
+    """``[integrator]`` keys besides method, h, duration: the options of ``method``, as one table."""
+    if not isinstance(method, str):
+        key = f"integrator.{next(iter(options))}"
+        raise SceneError(source, key, "give the method's options either as keys of `[integrator]` with "
+                                      "`method = \"name\"`, or inside the table `method = { name = ..., ... }`, "
+                                      "not both.")
+    return {"name": method, **options}
 
 
 def _listing(names):

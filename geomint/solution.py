@@ -69,6 +69,18 @@ class Solution:
         """Saved consecutive pairs where S rose by more than round-off (see ``count_S_rises``)."""
         return self.count_S_rises()
 
+    def save(self, path, system=None):
+        """Write to ``path`` (.npz with JSON metadata; ``system`` recorded if given): ``geomint.io.save``."""
+        from . import io
+
+        return io.save(self, path, system)
+
+    def to_xarray(self, system=None):
+        """An ``xarray.Dataset`` of this solution (optional dependency): ``geomint.io.to_xarray``."""
+        from . import io
+
+        return io.to_xarray(self, system)
+
     def count_S_rises(self, ulps=16):
         """Saved consecutive pairs with ``S_{n+1} - S_n > ulps * eps * max(|S_n|, |S_{n+1}|)``."""
         tol = ulps * np.finfo(np.float64).eps * np.maximum(np.abs(self.S[:-1]), np.abs(self.S[1:]))

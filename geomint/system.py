@@ -251,6 +251,21 @@ class MetriplecticSystem:
         s = self.sigma(x)
         return -self.eps * np.sum(s * s, axis=-1)
 
+    @classmethod
+    def from_expressions(cls, *, H, S, J=None, P=None, params=None, eps=1.0, name="expressions"):
+        """A system from formulas (strings), e.g. ``H="(y**2 + z**2)/2 - r*z"``, ``J=("-x", "0", "sigma")``.
+
+        Text is parsed by a whitelist grammar (never evaluated), gradients are exact, the
+        structure is checked symbolically, and generated numba code is cached on disk:
+        see ``geomint.expressions.build`` for the grammar and every argument.
+        """
+        from . import expressions
+
+        system = cls(**expressions.build(H=H, S=S, J=J, P=P, params=params, eps=eps, name=name))
+        poisson = {"J": list(J)} if J is not None else {"P": [list(row) for row in P]}
+        system.expressions = {"H": H, "S": S, **poisson, "params": dict(params or {})}  # for saved results
+        return system
+
 
 def _vector(v):
     """A user function's vector (3-tuple or array; a 3x3 ``P`` gives its axial vector) as a (3,) array."""

@@ -18,6 +18,7 @@ from hypothesis import assume, reject
 from hypothesis import strategies as st
 
 from . import systems as _catalogue
+from .diagnostics import measured_order, observed_order, reference_solution  # noqa: F401 (re-exported for tests)
 from .integrators import INTEGRATORS, resolve
 from .solve import solve
 
@@ -162,51 +163,3 @@ def assert_step_invariants(system, method, x, h, ulps=16, allow_failure=False):
     return x_new
 
 
-# -- orders ---------------------------------------------------------------------------------
-def reference_solution(system, x0, t_end, rtol=1e-13, atol=1e-15):
-    """``x(t_end)`` by scipy's DOP853 at tight tolerances (structure-blind, for order checks)."""
-    from scipy.integrate import solve_ivp
-
-    result = solve_ivp(
-        lambda t, x: system.xi(x), (0.0, t_end), np.asarray(x0, dtype=float), method="DOP853", rtol=rtol, atol=atol
-    )
-    assert result.success, result.message
-    return result.y[:, -1]
-
-
-def measured_order(system, method, x0, t_end, step_sizes, reference=None, floor=1e-13):
-    """Observed order of ``method`` on ``system`` from ``x0`` to ``t_end``: the slope of the
-    final-state error against ``h`` (see ``observed_order``), against ``reference``
-    (default: ``reference_solution``).  Returns ``(order, errors)``.
-    """
-    method = resolve(method)
-    reference = reference_solution(system, x0, t_end) if reference is None else np.asarray(reference)
-    errors = []
-    for h in step_sizes:
-        sol = solve(system, x0, (0.0, t_end), h, method=method, save_every=None)
-        assert sol.success, sol.message
-        errors.append(float(np.max(np.abs(sol.x_final - reference)) / np.max(np.abs(reference))))
-    return observed_order(step_sizes, errors, floor), errors
-
-
-
-def observed_order(step_sizes, errors, floor=1e-13):
-    """Least-squares slope of ``log error`` against ``log h``, round-off plateau excluded.
-
-    Points with ``error <= floor`` (relative round-off level) are dropped, and
-    so is everything on the small-h side of the first point where the error
-    stops decreasing.  Needs at least three points left.
-    """
-    h = np.asarray(step_sizes, dtype=float)
-    e = np.asarray(errors, dtype=float)
-    order = np.argsort(h)[::-1]
-    h, e = h[order], e[order]
-    keep = [0]
-    for i in range(1, len(h)):
-        if e[i] <= floor or e[i] >= e[keep[-1]]:
-            break
-        keep.append(i)
-    if len(keep) < 3:
-        raise ValueError(f"need >= 3 points above the round-off plateau; errors = {e.tolist()}")
-    slope, _ = np.polyfit(np.log(h[keep]), np.log(e[keep]), 1)
-    return float(slope)

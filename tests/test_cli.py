@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import subprocess
 import sys
 import tomllib
@@ -10,7 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from geomint import Gonzalez, Projected, Yoshida4
 from geomint.cli import BAD_INPUT, FAILED, OK, main
+from geomint.method_data import short_names
 from geomint.scene import Scene, SceneError, bundled_scenes
 from test_scene_errors import VALID
 
@@ -117,3 +120,100 @@ def test_bad_argument_exits_2(capsys):
     with pytest.raises(SystemExit) as exit_info:
         main(["run"])
     assert exit_info.value.code == BAD_INPUT
+
+
+WHOLE_FIELD = sorted(name for name, cls in short_names().items() if getattr(cls, "flows", ("full",)) != ("hamiltonian",))
+# a few steps of a scene for each integrator: the composition's base and a splitting's parts named in TOML
+OPTIONS = {"yoshida4": 'base = "symmetrized_itoh_abe"', "suzuki4": 'base = { name = "gonzalez", compensated = false }',
+           "strang": 'hamiltonian_part = "rigid_body_flow"\ngradient_part = "gonzalez"',
+           "lie": 'hamiltonian_part = "rotor_splitting"\ngradient_part = "itoh_abe"'}
+
+
+def test_there_are_15_whole_field_integrators():
+    assert len(WHOLE_FIELD) == 15
+
+
+@pytest.mark.parametrize("method", WHOLE_FIELD)
+def test_every_whole_field_integrator_runs_from_the_command_line(tmp_path, method):
+    text = (SHORT.replace('method = "gonzalez"', f'method = "{method}"\n{OPTIONS.get(method, "")}')
+            .replace("duration = 2.0", "duration = 0.4").replace("n = 3", "n = 2")
+            .replace('figures = ["overview", "invariants", "trajectories"]', 'figures = ["overview"]'))
+    out = tmp_path / "out"
+    done = subprocess.run([sys.executable, "-m", "geomint.cli", "run", str(_scene(tmp_path, text)), "--out", str(out),
+                           "--quiet"], capture_output=True, text=True, cwd=tmp_path)
+    assert done.returncode == OK, done.stderr
+    summary = json.loads((out / "short.summary.json").read_text())
+    assert summary["method"]["name"] == method and summary["totals"]["failed"] == 0
+    written = summary["scene"]["integrator"]["method"]  # a bare name when the method has no options
+    assert (written if isinstance(written, str) else written["name"]) == method
+    assert np.load(out / "short.npz")["x"].shape == (2, 3, 3)
+    assert (out / "short.overview.png").stat().st_size > 20_000
+
+
+def test_show_prints_a_nested_method_that_reads_back(tmp_path, capsys):
+    text = SHORT.replace('method = "gonzalez"', 'method = "yoshida4"\nbase = { name = "gonzalez", max_newton_iter = 9 }')
+    assert main(["show", str(_scene(tmp_path, text))]) == OK
+    data = tomllib.loads(capsys.readouterr().out)
+    assert data["integrator"]["method"] == {"name": "yoshida4", "monotone": False, "base": {
+        "name": "gonzalez", "max_newton_iter": 9, "compensated": True}}
+    assert Scene.from_dict(data).build_method() == Yoshida4(base=Gonzalez(max_newton_iter=9))
+
+
+def test_projected_takes_its_inner_method_as_a_table(tmp_path):
+    text = SHORT.replace('method = "gonzalez"', 'method = { name = "projected", method = "yoshida4", symmetric = true }')
+    assert Scene.from_toml(_scene(tmp_path, text)).build_method() == Projected(Yoshida4(), symmetric=True)
+
+
+@pytest.mark.parametrize("edit, problem", [
+    ('method = "rigid_body_flow"', r"`integrator.method`: `method` RigidBodyFlow\(\) integrates the Hamiltonian part only"),
+    ('method = "strang"\ngradient_part = "rigid_body_flow"',
+     r"`integrator.method`: `gradient_part` must integrate the gradient flow"),
+    ('method = "yoshida4"\nbase = "itoh_abe"', r"`integrator.method`: `base` must be symmetric and of order 2"),
+    ('method = "yoshida4"\nbase = "euler"', r"`integrator.method.base`: unknown integrator 'euler'; known: avf"),
+    ('method = "yoshida4"\nbase = { name = "avf", nodes = 99 }', r"`integrator.method.base`: `nodes` must be None"),
+    # the engine takes one-step methods without coefficients as stages: AVF is not one (yet)
+    ('method = "yoshida4"\nbase = "avf"', r"`integrator.method`: a sub-integrator must be a one-step method"),
+    ('method = "strang"\nhamiltonian_part = "oscillator_rotation"',
+     r"`integrator.method`: `method` OscillatorRotation\(\) applies only to the dissipative oscillator"),
+    ('method = { name = "yoshida4" }\nbase = "avf"', r"`integrator.base`: give the method's options either"),
+])
+def test_integrator_errors_are_one_line_with_the_key(tmp_path, capsys, edit, problem):
+    path = _scene(tmp_path, SHORT.replace('method = "gonzalez"', edit))
+    assert main(["run", str(path), "--out", str(tmp_path / "o")]) == BAD_INPUT
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert re.search(re.escape(f"geomint: error: {path}: ") + problem, err), err
+
+
+def test_bare_geomint_prints_help(capsys):
+    assert main([]) == OK
+    out = capsys.readouterr().out
+    assert out.startswith("usage: geomint") and "geomint run SCENE" in out
+
+
+def test_list_reads_orders_and_traits_from_instances(capsys):
+    assert main(["list"]) == OK
+    text = capsys.readouterr().out
+    assert "property object" not in text
+    assert re.search(r"  yoshida6 +order 6, energy-exact, symmetric, implicit;", text)
+    assert re.search(r"  strang +order 2, energy-exact, dissipative, symmetric, implicit;", text)
+    assert re.search(r"  rigid_body_flow +exact flow, .*Hamiltonian sub-flow only", text)
+    assert re.search(r"  rk4 +order 4;", text)
+
+
+def test_a_scene_written_as_formulas_runs_from_the_command_line(tmp_path):
+    done = subprocess.run([sys.executable, "-m", "geomint.cli", "run", "lorenz_nevir", "--out", str(tmp_path),
+                           "--quiet"], capture_output=True, text=True, cwd=tmp_path)
+    assert done.returncode == OK, done.stderr
+    summary = json.loads((tmp_path / "lorenz_nevir.summary.json").read_text())
+    assert summary["scene"]["system"]["H"] == "(y**2 + z**2)/2 - r*z"
+    assert summary["totals"]["S_rises"] == 0 and summary["totals"]["max_energy_error"] < 1e-14
+    assert (tmp_path / "lorenz_nevir.overview.png").exists()
+
+
+def test_an_output_folder_that_cannot_be_written_is_one_line(tmp_path, capsys):
+    blocked = tmp_path / "file"
+    blocked.write_text("not a folder")
+    assert main(["run", str(_scene(tmp_path)), "--out", str(blocked / "out"), "--quiet"]) == BAD_INPUT
+    err = capsys.readouterr().err
+    assert err.startswith("geomint: error: cannot write the results (") and err.count("\n") == 1

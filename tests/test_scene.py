@@ -15,11 +15,12 @@ BUNDLED = sorted(bundled_scenes())
 SHORT_STEPS = 60
 
 
-def test_every_paper_example_is_bundled():
+def test_every_paper_example_and_a_system_written_as_formulas_is_bundled():
     assert BUNDLED == sorted([
         "rigid_body_distinct", "rigid_body_equal", "oscillator_s0", "oscillator_z2",
-        "degenerate_example1", "degenerate_example2",
+        "degenerate_example1", "degenerate_example2", "lorenz_nevir",
     ])
+    assert "H" in load("lorenz_nevir").expressions
 
 
 @pytest.mark.parametrize("name", BUNDLED)
@@ -209,3 +210,22 @@ def test_equilibria_on_the_level_set_match_the_paper(system, H0, expected):
     assert len(found) == len(expected) and kinds == expected
     for x, _ in found:
         assert abs(system.H(x) - H0) < 1e-12
+
+
+def test_a_scene_written_as_formulas_runs_the_system_from_expressions_bit_for_bit():
+    scene = load("lorenz_nevir").replace(duration=0.2, figures=())
+    result = run_scene(scene)
+    spec = scene.expressions
+    direct = geomint.MetriplecticSystem.from_expressions(**spec, params=scene.parameters, eps=scene.eps)
+    for x0, sol in zip(scene.points, result.solutions):
+        np.testing.assert_array_equal(sol.x, geomint.solve(direct, x0, (0.0, 0.2), scene.h, save_every=scene.every).x)
+
+
+def test_a_composition_scene_names_its_base_and_serialises():
+    scene = Scene(**RIGID, integrator={"name": "yoshida4", "base": {"name": "gonzalez", "max_newton_iter": 20}})
+    result = run_scene(scene)
+    assert result.method == geomint.Yoshida4(base=geomint.Gonzalez(max_newton_iter=20))
+    summary = result.summary()
+    assert summary["method"] == {"name": "yoshida4", "monotone": False,
+                                 "base": {"name": "gonzalez", "max_newton_iter": 20, "compensated": True}}
+    assert Scene.from_dict(result.scene.to_dict()) == result.scene

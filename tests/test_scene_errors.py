@@ -135,3 +135,108 @@ def test_a_scene_file_is_never_evaluated(tmp_path):
     text = edit("h = 0.05", 'h = "__import__(\'os\').getcwd()"')
     with pytest.raises(SceneError, match=r"`integrator.h`: must be a number; got \"__import__"):
         Scene.from_toml(_write(tmp_path, text))
+
+
+# -- injection: every string a scene interprets is refused, and nothing in a scene ever runs -----------------------
+FORMULAS = {"system": {"name": "lorenz_nevir", "H": "(y**2 + z**2)/2 - r*z", "S": "x**2/2 - sigma*z",
+                       "J": ["-x", "0", "sigma"], "parameters": {"sigma": 10.0, "r": 28.0}},
+            "effects": {"eps": 0.01}, "initial": {"points": [[-2.0, 3.0, 20.0]]},
+            "integrator": {"method": "gonzalez", "h": 0.01, "duration": 0.05}, "output": {"figures": []}}
+
+
+def _put(path, text):
+    """``FORMULAS`` with the string at ``path`` (keys, ints for list items, "*key" to rename a key) set to ``text``."""
+    import copy
+
+    data = copy.deepcopy(FORMULAS)
+    *parents, last = path
+    target = data
+    for key in parents:
+        target = target[key]
+    if isinstance(last, str) and last.startswith("*"):
+        target[text] = target.pop(last[1:])
+    else:
+        target[last] = text
+    return data
+
+
+INTERPRETED = {
+    "system.H": ("system", "H"), "system.S": ("system", "S"), "system.J[0]": ("system", "J", 0),
+    "system.J[2]": ("system", "J", 2), "system.parameters name": ("system", "parameters", "*sigma"),
+    "system.name": ("system", "name"), "integrator.method": ("integrator", "method"),
+    "output.record": ("output", "record", None), "output.figures": ("output", "figures", None),
+    "output.every": ("output", "every"), "section key": ("*output",), "integrator option key": ("integrator", "*h"),
+    "system.P[1][2]": ("system", "P", 1, 2), "integrator.base": ("integrator", "base"),
+    "integrator option value": ("integrator", "monotone"), "initial.level_set key": ("initial", "level_set", "*H0"),
+}
+
+
+def _scene_with(field, text):
+    path = INTERPRETED[field]
+    if field == "system.P[1][2]":
+        data = _put(("system", "J"), None)
+        del data["system"]["J"]
+        data["system"]["P"] = [["0", "sigma", "0"], ["-sigma", "0", text], ["0", "x", "0"]]
+        return data
+    if field in ("integrator.base", "integrator option value"):
+        data = _put(("integrator", "method"), "yoshida4")
+        data["integrator"][path[-1]] = text
+        return data
+    if field == "initial.level_set key":
+        data = _put(("initial",), {"level_set": {"H0": 300.0, "n": 2}})
+        data["initial"]["level_set"][text] = data["initial"]["level_set"].pop("H0")
+        return data
+    if path[-1] is None:  # a list of names
+        return _put(path[:-1], [text])
+    if path == ("*output",):
+        data = _put(("output",), {})
+        data[text] = data.pop("output")
+        return data
+    return _put(path, text)
+
+
+@pytest.mark.parametrize("field", sorted(INTERPRETED))
+def test_hostile_strings_in_every_interpreted_field_are_refused_and_nothing_runs(tmp_path, field):
+    from hostile_strings import hostile
+
+    sentinel = tmp_path / "pwned"
+    strings = hostile(sentinel)
+    assert len(strings) >= 30
+    accepted = []
+    for text in strings:
+        try:
+            run_scene(Scene.from_dict(_scene_with(field, text)))
+        except SceneError as exc:
+            assert "\n" not in str(exc)
+        else:
+            accepted.append(text)
+    assert not sentinel.exists()
+    if field == "system.name":  # a label of an expression system: a harmless name is fine, nothing else
+        assert all(re.fullmatch(r"[A-Za-z][A-Za-z0-9_.-]*", text) for text in accepted), accepted
+    else:
+        assert accepted == []
+
+
+def test_hostile_labels_are_kept_as_text_and_nothing_runs(tmp_path):
+    from hostile_strings import hostile
+
+    sentinel = tmp_path / "pwned"
+    for text in hostile(sentinel):
+        scene = Scene.from_dict({**_put(("system", "name"), "lorenz_nevir"), "title": text, "description": text})
+        assert run_scene(scene).scene.title == text
+    assert not sentinel.exists()
+
+
+def test_a_scene_name_that_is_a_path_is_refused():
+    with pytest.raises(SceneError, match=r"`name`: must be a label of letters, digits and _ \. -"):
+        Scene.from_dict(FORMULAS, name="../../etc/passwd")
+
+
+def test_formula_errors_name_the_key_in_the_scene():
+    with pytest.raises(SceneError, match=r"<dict>: `system.J\[0\]`: not a whitelisted function: 'eval'"):
+        Scene.from_dict(_put(("system", "J", 0), "eval('1')"))
+    with pytest.raises(SceneError, match=r"`system.S` is not a Casimir of J: grad S x J = 0 fails; the residual "
+                                         r"simplifies to \[sigma\*x\*\*2\*y, sigma\*x\*\(1 - y\*\*2\), x\*\*3\*y\]\."):
+        Scene.from_dict(_put(("system", "S"), "x**2*y**2/2 - sigma*z")).resolved()
+    with pytest.raises(SceneError, match=r"<dict>: give exactly one of `system.J` \(3 formulas, axial vector\)"):
+        Scene.from_dict(_put(("system", "J"), None))

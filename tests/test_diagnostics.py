@@ -1,0 +1,70 @@
+"""geomint.diagnostics on real solutions: energy error, drift law, S rises, measured order, work-precision."""
+
+import numpy as np
+import pytest
+
+import geomint
+from geomint import diagnostics
+
+BODY = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
+X0 = [np.cos(1.1), 0.0, np.sin(1.1)]
+
+
+def test_energy_error_is_relative_and_zero_at_the_start():
+    sol = geomint.solve(BODY, X0, (0.0, 10.0), 0.1, method="rk4")
+    error = diagnostics.energy_error(sol)
+    assert error[0] == 0.0 and error.shape == sol.t.shape
+    np.testing.assert_array_equal(error, np.abs(sol.H - sol.H[0]) / abs(sol.H[0]))
+    assert error.max() == pytest.approx(sol.energy_error)
+
+
+def test_windowed_drift_separates_rk4_drift_from_gonzalez():
+    laws = {}
+    for method in ("rk4", "gonzalez"):
+        sol = geomint.solve(geomint.systems.relaxing_rigid_body(eps=0.0), X0, (0.0, 2000.0), 0.2, method=method)
+        centers, maxima = diagnostics.windowed_drift(sol, count=12)
+        assert centers.shape == maxima.shape == (12,)
+        laws[method] = diagnostics.growth_law(centers, maxima, t_min=10.0)
+    assert laws["rk4"][1] == "t" and 0.75 < laws["rk4"][0] < 1.25
+    assert laws["gonzalez"][1] in ("flat", "sqrt t")
+
+
+def test_windowed_drift_refuses_a_single_state():
+    sol = geomint.solve(BODY, X0, (0.0, 1.0), 0.1, save_every=None)
+    with pytest.raises(ValueError, match=r"`t_first` must lie in"):
+        diagnostics.windowed_drift(sol, t_first=5.0)
+
+
+def _with_S(S):
+    n = len(S)
+    return geomint.Solution(t=np.arange(n, dtype=float), x=np.zeros((n, 3)), H=np.ones(n), S=np.array(S), success=True,
+                            status=0, message="", failed_step=None, n_steps=n - 1, n_newton=0, nfev=0, method="test")
+
+
+def test_S_rises_locate_rises_beyond_round_off_only():
+    sol = _with_S([3.0, 2.0, 2.5, 1.0, 1.0 + 4 * diagnostics.EPS, 0.5])
+    np.testing.assert_array_equal(diagnostics.S_rises(sol), [1])
+    assert len(diagnostics.S_rises(sol)) == sol.count_S_rises()
+    assert len(diagnostics.S_rises(geomint.solve(BODY, X0, (0.0, 20.0), 0.2))) == 0
+
+
+def test_measured_order_of_rk4_and_gonzalez():
+    steps = [0.2, 0.1, 0.05, 0.025]
+    rk4, _ = diagnostics.measured_order(BODY, "rk4", X0, 2.0, steps)
+    gonzalez, _ = diagnostics.measured_order(BODY, "gonzalez", X0, 2.0, steps)
+    assert abs(rk4 - 4) < 0.2 and abs(gonzalez - 2) < 0.1
+
+
+def test_observed_order_excludes_the_round_off_plateau():
+    h = np.array([0.1, 0.05, 0.025, 0.0125, 0.00625])
+    errors = np.maximum(h**4, 3e-15)
+    assert diagnostics.observed_order(h, errors) == pytest.approx(4.0, abs=1e-9)
+
+
+def test_work_precision_errors_fall_with_the_cost_and_cost_to_reach_reads_them():
+    reference = diagnostics.reference_solution(BODY, X0, 2.0)
+    curve = diagnostics.work_precision(BODY, X0, 2.0, "gonzalez", [10, 20, 40, 80], reference, repeats=1)
+    assert curve.label == "gonzalez" and curve.structure_preserving
+    assert np.all(np.diff(curve.error) < 0) and np.all(np.diff(curve.nfev) > 0)
+    cost = diagnostics.cost_to_reach(curve.nfev, curve.error, curve.error[1])
+    assert cost == pytest.approx(curve.nfev[1])
