@@ -347,9 +347,10 @@ class Scene:
             center = self.level_set.get("center")
             center = _level_set.energy_minimiser(system).tolist() if center is None else center
             level_set = {**self.level_set, "center": center}
-        states = self.replace(level_set=level_set).initial_states(system)
+        self.replace(level_set=level_set).initial_states(system)  # validates the level set
         try:
-            method.bind(system, states[0])
+            method.check_system(system)
+            method.lower(system)
         except (TypeError, ValueError) as exc:
             raise SceneError(self.source, _KEY_OF["integrator"], str(exc)) from None
         return self.replace(parameters=parameters, integrator=integrator, level_set=level_set)

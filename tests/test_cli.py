@@ -159,6 +159,11 @@ def test_show_prints_a_nested_method_that_reads_back(tmp_path, capsys):
     assert Scene.from_dict(data).build_method() == Yoshida4(base=Gonzalez(max_newton_iter=9))
 
 
+def test_a_composition_of_avf_runs_from_a_scene(tmp_path):
+    path = _scene(tmp_path, SHORT.replace('method = "gonzalez"', 'method = "yoshida4"\nbase = "avf"'))
+    assert main(["run", str(path), "--out", str(tmp_path / "o"), "--quiet"]) == OK
+
+
 def test_projected_takes_its_inner_method_as_a_table(tmp_path):
     text = SHORT.replace('method = "gonzalez"', 'method = { name = "projected", method = "yoshida4", symmetric = true }')
     assert Scene.from_toml(_scene(tmp_path, text)).build_method() == Projected(Yoshida4(), symmetric=True)
@@ -171,10 +176,9 @@ def test_projected_takes_its_inner_method_as_a_table(tmp_path):
     ('method = "yoshida4"\nbase = "itoh_abe"', r"`integrator.method`: `base` must be symmetric and of order 2"),
     ('method = "yoshida4"\nbase = "euler"', r"`integrator.method.base`: unknown integrator 'euler'; known: avf"),
     ('method = "yoshida4"\nbase = { name = "avf", nodes = 99 }', r"`integrator.method.base`: `nodes` must be None"),
-    # the engine takes one-step methods without coefficients as stages: AVF is not one (yet)
-    ('method = "yoshida4"\nbase = "avf"', r"`integrator.method`: a sub-integrator must be a one-step method"),
+    ('method = "strang"\nhamiltonian_part = "yoshida4"', r"`integrator.method`: `hamiltonian_part` must be a one-step"),
     ('method = "strang"\nhamiltonian_part = "oscillator_rotation"',
-     r"`integrator.method`: `method` OscillatorRotation\(\) applies only to the dissipative oscillator"),
+     r"`integrator.method`: `method` OscillatorRotation\(\) applies only to systems that declare exact_flows"),
     ('method = { name = "yoshida4" }\nbase = "avf"', r"`integrator.base`: give the method's options either"),
 ])
 def test_integrator_errors_are_one_line_with_the_key(tmp_path, capsys, edit, problem):

@@ -73,7 +73,8 @@ def test_level_surface_draws_a_circle_of_equilibria_as_a_curve():
     equal = geomint.systems.relaxing_rigid_body(1.0, 1.0, 0.5, eps=0.5)
     sol = geomint.solve(equal, [0.3, 0.2, 0.6], (0.0, 5.0), 0.05)
     ax = plotting.level_surface(equal, sol)
-    assert "curve of neutral equilibria" in _labels(ax)
+    # The circle x² + y² = 2 H0 attracts at rate -1.5 eps across it (geomint.analysis), so it is drawn as stable.
+    assert "curve of stable equilibria" in _labels(ax)
 
 
 def test_work_precision_draws_one_keyed_line_per_curve():

@@ -1,0 +1,134 @@
+"""Per-step cost of the engine against hand-written numba floors, and whole solves against scipy.
+
+    PYTHONPATH=. python -m experiments.engine_speed [--steps N] [--repeats R]
+
+Writes docs/engine_speed.md.  Everything is measured in one process, in
+interleaved repeats (one of each per round), and reported as medians and as
+ratios within the run: the machines are shared, so absolute times move with
+the load while ratios move much less.
+
+* per step (relaxing rigid body (0.5, 1, 1.5), eps = 0.1, h = 0.01, final state
+  only): the floors of ``experiments.floors`` (RK4 with the field inlined; RK4
+  through first-class functions as geomint reaches user functions), and
+  geomint's RK4, Gonzalez, Projected(RK4) and Yoshida4(Gonzalez);
+* one state: ``system.xi(x)``;
+* whole solves to T = 100: geomint Gonzalez (h = 0.01) and Projected(RK4)
+  (h = 0.05) against ``scipy.integrate.solve_ivp`` (DOP853, rtol 1e-10, with a
+  compiled right-hand side), with the energy error each reaches.
+"""
+
+import argparse
+import statistics
+import time
+from pathlib import Path
+
+import numba
+import numpy as np
+from scipy.integrate import solve_ivp
+
+import geomint
+
+from . import floors
+
+DOCS = Path(__file__).resolve().parent.parent / "docs"
+X0 = np.array([np.cos(1.1), 0.0, np.sin(1.1)])
+
+
+@numba.njit(cache=True)
+def _rhs(t, m):
+    a, b, c, eps = 0.5, 1.0, 1.5, 0.1
+    g = np.array([a * m[0], b * m[1], c * m[2]])
+    p = np.cross(g, m)
+    return p + eps * np.cross(g, np.cross(g, m))
+
+
+def _medians(runs, repeats):
+    for run in runs.values():
+        run()
+    times = {name: [] for name in runs}
+    for _ in range(repeats):
+        for name, run in runs.items():
+            start = time.perf_counter()
+            run()
+            times[name].append(time.perf_counter() - start)
+    return {name: statistics.median(t) for name, t in times.items()}
+
+
+def per_step(n, repeats):
+    body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
+    h = 0.01
+    methods = {"geomint RK4": geomint.RK4(), "geomint Gonzalez": geomint.Gonzalez(),
+               "geomint Projected(RK4)": geomint.Projected(), "geomint Yoshida4(Gonzalez)": geomint.Yoshida4()}
+    runs = {
+        "RK4 by hand, field inlined": lambda: floors.rk4_inlined(0.5, 1.0, 1.5, 0.1, X0, h, n),
+        "RK4 by hand, first-class functions + flush": lambda: floors.rk4_first_class(body.model, 0.1, X0, h, n),
+    }
+    for label, method in methods.items():
+        runs[label] = lambda method=method: geomint.solve(body, X0, (0.0, n * h), h, method=method, save_every=None)
+    medians = _medians(runs, repeats)
+    return {name: 1e9 * t / n for name, t in medians.items()}
+
+
+def single_state(repeats):
+    body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
+    body.xi(X0)
+    samples = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        for _ in range(1000):
+            body.xi(X0)
+        samples.append((time.perf_counter() - start) / 1000)
+    return 1e6 * statistics.median(samples)
+
+
+def whole_solves(repeats):
+    body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
+    T = 100.0
+    results = {}
+    runs = {
+        "geomint Gonzalez, h = 0.01": lambda: geomint.solve(body, X0, (0.0, T), 0.01, save_every=None),
+        "geomint Projected(RK4), h = 0.05": lambda: geomint.solve(body, X0, (0.0, T), 0.05, method="projected",
+                                                                  save_every=None),
+        "scipy DOP853, rtol 1e-10": lambda: solve_ivp(_rhs, (0.0, T), X0, method="DOP853", rtol=1e-10, atol=1e-12),
+    }
+    medians = _medians(runs, repeats)
+    H0 = body.H(X0)
+    for name, run in runs.items():
+        out = run()
+        x_end = out.x_final if hasattr(out, "x_final") else out.y[:, -1]
+        results[name] = (medians[name], abs(body.H(x_end) - H0) / H0)
+    return results
+
+
+def report(steps, single, solves, n, repeats):
+    floor = steps["RK4 by hand, first-class functions + flush"]
+    rk4 = steps["geomint RK4"]
+    gonzalez = steps["geomint Gonzalez"]
+    lines = ["# Engine speed", "", "Regenerate: `PYTHONPATH=. python -m experiments.engine_speed`. "
+             f"{n} steps per run, medians of {repeats} interleaved repeats, one process; ratios within the run.", "",
+             "## Per step (relaxing rigid body, eps = 0.1, h = 0.01, final state only)", "",
+             "| | ns/step | / first-class floor | / geomint RK4 | / geomint Gonzalez |", "|---|---|---|---|---|"]
+    for name, ns in steps.items():
+        lines.append(f"| {name} | {ns:.0f} | {ns / floor:.2f} | {ns / rk4:.2f} | {ns / gonzalez:.2f} |")
+    lines += ["", f"`system.xi(x)` on one state: {single:.2f} us (median of {repeats} x 1000 calls).", "",
+              "## Whole solves to T = 100 against scipy", "", "| | ms | / scipy DOP853 | final |H - H0|/H0 |",
+              "|---|---|---|---|"]
+    scipy_time = solves["scipy DOP853, rtol 1e-10"][0]
+    for name, (seconds, error) in solves.items():
+        lines.append(f"| {name} | {1e3 * seconds:.2f} | {seconds / scipy_time:.2f} | {error:.1e} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=200_000)
+    parser.add_argument("--repeats", type=int, default=7)
+    args = parser.parse_args(argv)
+    steps = per_step(args.steps, args.repeats)
+    text = report(steps, single_state(args.repeats), whole_solves(args.repeats), args.steps, args.repeats)
+    (DOCS / "engine_speed.md").write_text(text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
