@@ -144,17 +144,34 @@ class MetriplecticSystem:
     # -- the model as kernels receive it ------------------------------------------------
     @property
     def model(self):
-        """``layout.Model(H, grad_H, S, grad_S, J or P, params)``: the model as every kernel receives it.
+        """``layout.Model(H, grad_H, S, grad_S, J or P, params, origin)``: the model as every kernel receives it.
 
         The functions are handed over as compiled first-class function objects
         (their machine addresses, looked up once), not as dispatchers, which
         numba would resolve anew at every kernel call.  Their types (tuple or
-        array results, J or P) select the compiled kernel variant.
+        array results, J or P) select the compiled kernel variant.  ``origin``
+        holds H, grad H, S and grad S at 0 (0 where not finite): the kernels
+        measure the constant and linear terms of H and S from it, the terms
+        whose round-off ``x . grad F`` does not show.
         """
         if "_model" not in self.__dict__:
             f = self.functions
-            self._model = Model(*(_first_class(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S, f.poisson)), self._params)
+            self._model = Model(*(_first_class(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S, f.poisson)), self._params,
+                                self._origin())
         return self._model
+
+    def _origin(self):
+        f, p, zero = self.functions, self._params, np.zeros(3)
+        values = []
+        for value, gradient in ((f.H, f.grad_H), (f.S, f.grad_S)):
+            try:
+                with np.errstate(all="ignore"):
+                    values += [float(value(zero, p)), *_vector(gradient(zero, p))]
+            except (ArithmeticError, ValueError):  # singular at 0 (log |x|, 1/|x| ...): no such terms to measure
+                values += [0.0] * 4
+        origin = np.array(values, dtype=np.float64)
+        origin[~np.isfinite(origin)] = 0.0
+        return origin
 
     @property
     def params(self):

@@ -125,27 +125,35 @@ def one_step(system, method, x, h, allow_failure=False):
     return sol.x[-1]
 
 
-def term_scale(value_old, value_new, gradient, x):
-    """The size of the terms of F at a step: ``max(|F(x)|, |F(x')|, |grad F(x)| |x|)``.
+def term_scale(value_old, value_new, gradient, x, base=0.0):
+    """The size of the terms of F at a step: ``max(|F(x)|, |F(x')|, |grad F(x)| |x|, base)``.
 
     Round-off in evaluating F is a few ulps of its largest term; ``|grad F||x|``
     measures the terms where they cancel (for homogeneous F of degree k it is
-    k |F|).
+    k |F|); ``base`` the constant and linear terms, which it misses where they
+    cancel the rest (``origin_terms``).
     """
-    return max(abs(value_old), abs(value_new), float(np.hypot.reduce(gradient) * np.hypot.reduce(x)))
+    return max(abs(value_old), abs(value_new), float(np.hypot.reduce(gradient) * np.hypot.reduce(x)), base)
+
+
+def origin_terms(system, name, x):
+    """``|F(0)| + sum_i |d_i F(0) x_i|`` for F = ``name`` (``"H"`` or ``"S"``): the constant and linear
+    terms of F at x (``H = |x - c|^2 / 2`` written out has terms ~ |c|^2 where H ~ 0)."""
+    origin = system.model.origin[{"H": 0, "S": 4}[name]:][:4]
+    return float(abs(origin[0]) + np.abs(origin[1:]) @ np.abs(np.asarray(x, dtype=float)))
 
 
 def assert_conserves_energy(system, x, x_new, ulps=16):
     """``|H(x') - H(x)| <= ulps * eps * scale`` (see ``term_scale``)."""
     H0, H1 = system.H(x), system.H(x_new)
-    tol = ulps * EPS * term_scale(H0, H1, system.grad_H(x), x)
+    tol = ulps * EPS * term_scale(H0, H1, system.grad_H(x), x, origin_terms(system, "H", x))
     assert abs(H1 - H0) <= tol, f"|dH| = {abs(H1 - H0):.3e} > {tol:.3e} ({ulps} ulp) from x = {x.tolist()}"
 
 
 def assert_dissipates(system, x, x_new, ulps=16):
     """``S(x') - S(x) <= ulps * eps * scale``: S does not rise beyond round-off."""
     S0, S1 = system.S(x), system.S(x_new)
-    tol = ulps * EPS * term_scale(S0, S1, system.grad_S(x), x)
+    tol = ulps * EPS * term_scale(S0, S1, system.grad_S(x), x, origin_terms(system, "S", x))
     assert S1 - S0 <= tol, f"S rose by {S1 - S0:.3e} > {tol:.3e} ({ulps} ulp) from x = {x.tolist()}"
 
 

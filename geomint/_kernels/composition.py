@@ -39,7 +39,7 @@ Caller: ``driver.step`` (and ``rise_statistics``).
 import numpy as np
 from numba import njit
 
-from .discrete_gradient import term_scale
+from .discrete_gradient import origin_terms, term_scale
 from .exact_flows import rigid_body_flow, rotation, rotor_splitting
 from .layout import (
     GRADIENT, HAMILTONIAN, HEADER, LEAF_DISCRETE_GRADIENT, LEAF_RIGID_BODY_FLOW, LEAF_RK4, LEAF_ROTOR_SPLITTING,
@@ -169,12 +169,13 @@ def _pull_back(model, buf, y, H_y, S_y, anchor, S_limit, max_iter):
     terms of H (see the module docstring), keeping S at most ``S_limit`` (S at the start of the full
     step, or the step's own S where it rose) to round-off.  Returns ``(y, H(y), S(y), evaluations)``."""
     grad_h = as_vector(model.grad_H(load(buf, y), model.params))
-    if abs(H_y - anchor) <= ANCHOR_ULPS * EPS * term_scale(anchor, H_y, grad_h, y):
+    if abs(H_y - anchor) <= ANCHOR_ULPS * EPS * term_scale(anchor, H_y, grad_h, y, origin_terms(model.origin, 0, y)):
         return y, H_y, S_y, 1
     z, H_z, it = project_energy(model, buf, y, anchor, max_iter)
     S_z = model.S(load(buf, z), model.params)
     grad_s = as_vector(model.grad_S(buf, model.params))
-    if S_z - S_limit > rise_tolerance(S_limit, S_z, grad_s, z):  # along grad S too: H = anchor, S = S_limit
+    # along grad S too: H = anchor, S = S_limit
+    if S_z - S_limit > rise_tolerance(S_limit, S_z, grad_s, z, origin_terms(model.origin, 4, z)):
         z, H_z, S_z, converged, more = project_both(model, buf, y, anchor, S_limit, max_iter)
         it += more
         if not converged:
@@ -217,11 +218,11 @@ def composed_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, 
         evaluations += it + 2
         comp_y = ZERO
         grad_h = as_vector(model.grad_H(load(buf, y), model.params))
-        if not _kept(H_anchor, H_y, term_scale(H_anchor, H_y, grad_h, y), 64.0, 0.0):
+        if not _kept(H_anchor, H_y, term_scale(H_anchor, H_y, grad_h, y, origin_terms(model.origin, 0, y)), 64.0, 0.0):
             return StepResult(y, comp_y, H_y, S_y, PROJECTION_FAILED, iterations, evaluations, residual, UNKNOWN), rises, fired
         S_y = model.S(load(buf, y), model.params)
         grad_s = as_vector(model.grad_S(buf, model.params))
-        if S_y - S_x > rise_tolerance(S_x, S_y, grad_s, y):
+        if S_y - S_x > rise_tolerance(S_x, S_y, grad_s, y, origin_terms(model.origin, 4, y)):
             y, H_y, S_y, converged, it = project_both(model, buf, y, H_anchor, S_x, max_iter)
             evaluations += it + 1
             if not converged:

@@ -17,9 +17,12 @@ Switching rules.  A difference quotient ``[F(b) - F(a)] / d`` carries
 round-off ~ eps T / |d|, with T the size of the *terms* of F, not of F: at an
 equilibrium of the metriplectic Lorenz system the terms of H are ~1500 while
 H ~ -30 (it is 0/0 when ``d = 0``).  T is estimated as
-``max(|F(x)|, |F(x')|, sum_i |d_i F x_i|)`` (for homogeneous F of degree k,
-``x . grad F = k F``; where terms cancel, ``sum_i |d_i F x_i|`` still measures
-them; ``term_scale``).  Gonzalez and AVF use their correction term only where it exceeds its
+``max(|F(x)|, |F(x')|, sum_i |d_i F x_i|, |F(0)| + sum_i |d_i F(0) x_i|)``:
+for homogeneous F of degree k, ``x . grad F = k F``; where terms cancel,
+``sum_i |d_i F x_i|`` still measures them; and the last entry measures the
+constant and linear terms, which ``x . grad F`` misses where they cancel the
+others (``H = |x - c|^2 / 2`` written out, ``-r z`` in the Lorenz system near
+``z = r``); ``term_scale``, ``origin_terms``.  Gonzalez and AVF use their correction term only where it exceeds its
 own round-off bound (see ``gonzalez``): elsewhere the uncorrected gradient
 already satisfies the identity to round-off, and adding the correction would
 add noise ~ eps T / |dx| that no Newton iteration can remove.  The small
@@ -30,7 +33,11 @@ composed steps are pulled back onto H(x0) when they stray
 partial derivative at the edge's midpoint below ``|d| <= SWITCH * |x|_inf``,
 ``SWITCH = eps^(1/3)``, where the quotient's round-off and the derivative's
 defect ~ |d|^2 |F'''| are both below one ulp of F (this covers a coordinate
-that does not move, 0/0).  Every discrete gradient returns, with its value, a
+that does not move, 0/0); the few ulps by which the switched gradient then
+misses ``dg . dx = F(x') - F(x)`` (the rounding of the F values, which a
+quotient would absorb) are removed by Gonzalez's projection under its own
+switching rule (``_exact``): without it a step near an equilibrium converges to
+a root that keeps H to ~5 ulp only.  Every discrete gradient returns, with its value, a
 bound on the round-off it carries: the Newton iteration's floor.
 """
 
@@ -50,13 +57,22 @@ SWITCH = EPS ** (1.0 / 3.0)
 
 
 @njit(inline="always")
-def term_scale(f_old, f_new, gradient, x):
-    """``max(|F(x)|, |F(x')|, sum_i |d_i F x_i|)``: the size of the terms of F (module docstring)."""
-    return max(abs(f_old), abs(f_new), abs(gradient[0] * x[0]) + abs(gradient[1] * x[1]) + abs(gradient[2] * x[2]))
+def term_scale(f_old, f_new, gradient, x, base):
+    """``max(|F(x)|, |F(x')|, sum_i |d_i F x_i|, base)``: the size of the terms of F (module docstring);
+    ``base`` is ``origin_terms`` at x."""
+    return max(abs(f_old), abs(f_new), abs(gradient[0] * x[0]) + abs(gradient[1] * x[1]) + abs(gradient[2] * x[2]),
+               base)
 
 
 @njit(inline="always")
-def gonzalez(grad_mid, f_old, f_new, dx, x_new, gain):
+def origin_terms(origin, at, x):
+    """``|F(0)| + sum_i |d_i F(0) x_i|``, with ``F(0), grad F(0)`` at ``origin[at:at + 4]``
+    (``layout.Model.origin``: H at 0, S at 4): the constant and linear terms of F at x."""
+    return abs(origin[at]) + abs(origin[at + 1] * x[0]) + abs(origin[at + 2] * x[1]) + abs(origin[at + 3] * x[2])
+
+
+@njit(inline="always")
+def gonzalez(grad_mid, f_old, f_new, dx, x_new, gain, base):
     """Gonzalez's discrete gradient (J. Nonlinear Sci. 6 (1996) 449, doi:10.1007/BF02440162).
 
         dgF = g + N / |dx|^2 dx,   N = F(x') - F(x) - g . dx,   g = grad F(xbar)
@@ -72,16 +88,17 @@ def gonzalez(grad_mid, f_old, f_new, dx, x_new, gain):
     discrete gradient: ``|h| (|J| + eps |dgH| |dgS| ...)``, see ``discrete_field``),
     would exceed 1% of the step, ``bound gain > |dx|^2 / 100``: no iteration
     could converge on such a quotient, and there ``|dx| <= 10 sqrt(bound gain)``
-    makes the skipped defect N = O(|dx|^3) far smaller than round-off.  ``dx`` is
+    makes the skipped defect N = O(|dx|^3) far smaller than round-off; and
+    where ``dx = 0`` (a state at rest: no direction to correct along).  ``dx`` is
     divided by its largest component first so that ``|dx|^2`` neither
     underflows nor overflows.  Returns ``(dgF, noise)``: ``noise`` bounds the
     round-off the correction carries (0 where ``g`` is used).
     """
     slope = dot(grad_mid, dx)
     defect = f_new - f_old - slope
-    bound = 2.0 * EPS * term_scale(f_old, f_new, grad_mid, x_new)
+    bound = 2.0 * EPS * term_scale(f_old, f_new, grad_mid, x_new, base)
     largest = norm_inf(dx)
-    if not abs(defect) > bound or not bound * gain <= 0.01 * largest * largest:
+    if not abs(defect) > bound or not bound * gain <= 0.01 * largest * largest or largest == 0.0:
         return grad_mid, 0.0
     unit = (dx[0] / largest, dx[1] / largest, dx[2] / largest)
     length2 = dot(unit, unit)
@@ -101,23 +118,24 @@ def _value(F, params, buf, x, x_new, mask):
 
 
 @njit(inline="always")
-def _edge_quotient(grad_F, params, buf, x, x_new, i, mask, f_lo, f_hi, size):
+def _edge_quotient(grad_F, params, buf, x, x_new, i, mask, f_lo, f_hi, size, base):
     """``[F(hi) - F(lo)] / (x'_i - x_i)`` along the box edge from corner ``mask`` in direction i.
 
     Below the switch (``|x'_i - x_i| <= SWITCH * size``, including 0/0) the
     partial derivative at the edge's midpoint.  Returns ``(quotient, noise)``,
-    ``noise`` the quotient's round-off bound ``4 eps (|F(lo)| + |F(hi)|) / |d|``.
+    ``noise`` the quotient's round-off bound ``4 eps (|F(lo)| + |F(hi)| + base) / |d|`` (``base``: the
+    constant and linear terms, ``origin_terms``).
     """
     d = x_new[i] - x[i]
     if abs(d) <= SWITCH * size:
         lo = _vertex(x, x_new, mask)
         load(buf, axpy(0.5, sub(_vertex(x, x_new, mask | (1 << i)), lo), lo))
         return as_vector(grad_F(buf, params))[i], 0.0
-    return (f_hi - f_lo) / d, 4.0 * EPS * (abs(f_lo) + abs(f_hi)) / abs(d)
+    return (f_hi - f_lo) / d, 4.0 * EPS * (abs(f_lo) + abs(f_hi) + base) / abs(d)
 
 
 @njit(inline="always")
-def itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size):
+def itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, base):
     """Itoh-Abe's discrete gradient (J. Comput. Phys. 76 (1988) 85, doi:10.1016/0021-9991(88)90132-5).
 
         dgF_i = [F(x'_1..x'_i, x_{i+1}..x_n) - F(x'_1..x'_{i-1}, x_i..x_n)] / (x'_i - x_i)
@@ -127,14 +145,14 @@ def itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size):
     """
     f1 = _value(F, params, buf, x, x_new, 1)
     f3 = _value(F, params, buf, x, x_new, 3)
-    q0, n0 = _edge_quotient(grad_F, params, buf, x, x_new, 0, 0, f_old, f1, size)
-    q1, n1 = _edge_quotient(grad_F, params, buf, x, x_new, 1, 1, f1, f3, size)
-    q2, n2 = _edge_quotient(grad_F, params, buf, x, x_new, 2, 3, f3, f_new, size)
+    q0, n0 = _edge_quotient(grad_F, params, buf, x, x_new, 0, 0, f_old, f1, size, base)
+    q1, n1 = _edge_quotient(grad_F, params, buf, x, x_new, 1, 1, f1, f3, size, base)
+    q2, n2 = _edge_quotient(grad_F, params, buf, x, x_new, 2, 3, f3, f_new, size, base)
     return (q0, q1, q2), max(n0, n1, n2)
 
 
 @njit(inline="always")
-def _symmetrized_component(grad_F, params, buf, x, x_new, f, i, size):
+def _symmetrized_component(grad_F, params, buf, x, x_new, f, i, size, base):
     """Component i of Itoh-Abe's gradient averaged over the 6 orderings.
 
     Coordinate i moves first (2 orderings), second (1 each after j or k) or last
@@ -143,15 +161,15 @@ def _symmetrized_component(grad_F, params, buf, x, x_new, f, i, size):
     bit = 1 << i
     j = 1 << ((i + 1) % 3)
     k = 1 << ((i + 2) % 3)
-    q0, n0 = _edge_quotient(grad_F, params, buf, x, x_new, i, 0, f[0], f[bit], size)
-    q1, n1 = _edge_quotient(grad_F, params, buf, x, x_new, i, j, f[j], f[j | bit], size)
-    q2, n2 = _edge_quotient(grad_F, params, buf, x, x_new, i, k, f[k], f[k | bit], size)
-    q3, n3 = _edge_quotient(grad_F, params, buf, x, x_new, i, j | k, f[j | k], f[7], size)
+    q0, n0 = _edge_quotient(grad_F, params, buf, x, x_new, i, 0, f[0], f[bit], size, base)
+    q1, n1 = _edge_quotient(grad_F, params, buf, x, x_new, i, j, f[j], f[j | bit], size, base)
+    q2, n2 = _edge_quotient(grad_F, params, buf, x, x_new, i, k, f[k], f[k | bit], size, base)
+    q3, n3 = _edge_quotient(grad_F, params, buf, x, x_new, i, j | k, f[j | k], f[7], size, base)
     return (2.0 * q0 + q1 + q2 + 2.0 * q3) / 6.0, max(n0, n1, n2, n3)
 
 
 @njit(inline="always")
-def symmetrized_itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size):
+def symmetrized_itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, base):
     """Itoh-Abe's discrete gradient averaged over all 6 orderings of the coordinates.
 
     A mean of discrete gradients is one; the set of orderings is closed under
@@ -169,9 +187,9 @@ def symmetrized_itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size):
         _value(F, params, buf, x, x_new, 6),
         f_new,
     )
-    q0, n0 = _symmetrized_component(grad_F, params, buf, x, x_new, f, 0, size)
-    q1, n1 = _symmetrized_component(grad_F, params, buf, x, x_new, f, 1, size)
-    q2, n2 = _symmetrized_component(grad_F, params, buf, x, x_new, f, 2, size)
+    q0, n0 = _symmetrized_component(grad_F, params, buf, x, x_new, f, 0, size, base)
+    q1, n1 = _symmetrized_component(grad_F, params, buf, x, x_new, f, 1, size, base)
+    q2, n2 = _symmetrized_component(grad_F, params, buf, x, x_new, f, 2, size, base)
     return (q0, q1, q2), max(n0, n1, n2)
 
 
@@ -187,48 +205,60 @@ def average_gradient(grad_F, params, buf, x, dx, coeffs):
 
 
 @njit(inline="always")
-def _gonzalez_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain):
+def _gonzalez_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
     dx = sub(x_new, x)
     load(buf, axpy(0.5, dx, x))
-    return gonzalez(as_vector(grad_F(buf, params)), f_old, f_new, dx, x_new, gain)
+    return gonzalez(as_vector(grad_F(buf, params)), f_old, f_new, dx, x_new, gain, base)
 
 
 @njit(inline="always")
-def _avf_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain):
+def _avf_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
     """AVF: the Gauss-Legendre average of grad F on the segment (Quispel, McLaren, J. Phys. A 41
     (2008) 045206, doi:10.1088/1751-8113/41/4/045206), made an exact discrete gradient for any F by
     Gonzalez's projection; the projection's correction vanishes (to round-off) when the rule
     integrates grad F exactly."""
     dx = sub(x_new, x)
-    return gonzalez(average_gradient(grad_F, params, buf, x, dx, coeffs), f_old, f_new, dx, x_new, gain)
+    return gonzalez(average_gradient(grad_F, params, buf, x, dx, coeffs), f_old, f_new, dx, x_new, gain, base)
 
 
 @njit(inline="always")
-def _itoh_abe_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain):
-    return itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size)
+def _exact(dg_noise, f_old, f_new, x, x_new, gain, base):
+    """An Itoh-Abe gradient made exact again where edges switched to derivatives (module docstring):
+    Gonzalez's projection of it onto ``dg . dx = F(x') - F(x)``, applied only where the defect exceeds
+    its round-off bound (``gonzalez``), so an unswitched gradient is returned as it is."""
+    dg, noise = dg_noise
+    exact, more = gonzalez(dg, f_old, f_new, sub(x_new, x), x_new, gain, base)
+    return exact, max(noise, more)
 
 
 @njit(inline="always")
-def _symmetrized_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain):
-    return symmetrized_itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size)
+def _itoh_abe_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
+    return _exact(itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, base), f_old, f_new, x, x_new, gain,
+                  base)
+
+
+@njit(inline="always")
+def _symmetrized_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
+    return _exact(symmetrized_itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, base), f_old, f_new, x,
+                  x_new, gain, base)
 
 
 @njit(error_model="numpy")
-def _by_code(code, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain):
+def _by_code(code, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
     if code == ITOH_ABE:
-        return _itoh_abe_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain)
+        return _itoh_abe_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
     if code == SYMMETRIZED_ITOH_ABE:
-        return _symmetrized_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain)
+        return _symmetrized_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
     if code == AVF:
-        return _avf_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain)
-    return _gonzalez_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain)
+        return _avf_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
+    return _gonzalez_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
 
 
 _BY_MARKER = {GonzalezKind: _gonzalez_dg, ItohAbeKind: _itoh_abe_dg, SymmetrizedItohAbeKind: _symmetrized_dg,
               AVFKind: _avf_dg}
 
 
-def discrete_gradient(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain):
+def discrete_gradient(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
     """The discrete gradient of F at ``(x, x')`` selected by ``kind``, and its round-off bound.
 
     ``kind`` is a kind marker (``layout.GonzalezKind`` ...: the choice is made when
@@ -236,18 +266,18 @@ def discrete_gradient(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_n
     an integer code (the stages of a composed program: chosen at run time).
     """
     code = kind if isinstance(kind, (int, np.integer)) else kind.code
-    return _by_code(code, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain)
+    return _by_code(code, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
 
 
 @overload(discrete_gradient)
-def _discrete_gradient_typed(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain):
+def _discrete_gradient_typed(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
     if isinstance(kind, types.Integer):
-        return lambda kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain: _by_code(
-            kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain
+        return lambda kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base: _by_code(
+            kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base
         )
     impl = _BY_MARKER[kind.instance_class]
-    return lambda kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain: impl(
-        coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain
+    return lambda kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base: impl(
+        coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base
     )
 
 
@@ -327,8 +357,10 @@ def discrete_field(kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, 
     axial_size, size_h, size_s = scales
     gain_h = abs(h) * ((axial_size if hamiltonian else 0.0) + 2.0 * eps * size_h * size_s)
     gain_s = abs(h) * ((axial_size / size_s if hamiltonian and size_s > 0.0 else 0.0) + eps * size_h * size_h)
-    dg_h, noise_h = discrete_gradient(kind, coeffs, model.H, model.grad_H, p, buf, x, x_new, H_old, H_new, size, gain_h)
-    dg_s, noise_s = discrete_gradient(kind, coeffs, model.S, model.grad_S, p, buf, x, x_new, S_old, S_new, size, gain_s)
+    dg_h, noise_h = discrete_gradient(kind, coeffs, model.H, model.grad_H, p, buf, x, x_new, H_old, H_new, size, gain_h,
+                                      origin_terms(model.origin, 0, x_new))
+    dg_s, noise_s = discrete_gradient(kind, coeffs, model.S, model.grad_S, p, buf, x, x_new, S_old, S_new, size, gain_s,
+                                      origin_terms(model.origin, 4, x_new))
     size_h, size_s = norm_inf(dg_h), norm_inf(dg_s)
     noise = eps * (2.0 * noise_h * size_s + noise_s * size_h) * size_h
     axial_bar = ZERO

@@ -116,5 +116,7 @@ KIND_MARKERS = {GONZALEZ: GonzalezKind, ITOH_ABE: ItohAbeKind, SYMMETRIZED_ITOH_
 #: splittings, compositions and projections: a flat program (``composition``)
 ComposedStep = namedtuple("ComposedStep", "coeffs iopts slots")
 
-#: the model as every kernel receives it: the user's functions (compiled, first-class) and params
-Model = namedtuple("Model", "H grad_H S grad_S J params")
+#: the model as every kernel receives it: the user's functions (compiled, first-class), params, and
+#: ``origin = (H(0), grad H(0), S(0), grad S(0))`` (8 floats, 0 where not finite), from which the
+#: kernels measure the constant and linear terms of H and S (``discrete_gradient.origin_terms``)
+Model = namedtuple("Model", "H grad_H S grad_S J params origin")

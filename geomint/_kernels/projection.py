@@ -25,9 +25,10 @@ SQRT_EPS = np.sqrt(EPS)
 
 
 @njit(inline="always")
-def rise_tolerance(S_old, S_new, grad_s, x):
-    """Round-off in ``S(x') - S(x)``: ``2 eps max(|S|, |S'|, |grad S|_inf |x|_inf)``."""
-    return 2.0 * EPS * max(abs(S_old), abs(S_new), norm_inf(grad_s) * norm_inf(x))
+def rise_tolerance(S_old, S_new, grad_s, x, base):
+    """Round-off in ``S(x') - S(x)``: ``2 eps max(|S|, |S'|, |grad S|_inf |x|_inf, base)``, ``base`` the
+    constant and linear terms of S (``discrete_gradient.origin_terms``)."""
+    return 2.0 * EPS * max(abs(S_old), abs(S_new), norm_inf(grad_s) * norm_inf(x), base)
 
 
 @njit(inline="always")

@@ -13,13 +13,13 @@ round-off in the state does not random-walk.
 import numpy as np
 from numba import njit
 
-from .discrete_gradient import discrete_field, term_scale
+from .discrete_gradient import discrete_field, origin_terms, term_scale
 from .field import field, non_finite_culprit
 from .layout import (
     NEWTON_FAILED, NON_FINITE, OK, UNKNOWN, W_DX1, W_DX2, W_DX3, W_H, W_HISTORY, W_JACOBIAN, W_JACOBIAN_VALID,
     StepResult,
 )
-from .vec3 import ZERO, add, axpy, is_finite, load, norm_inf, scale, solve, sub
+from .vec3 import ZERO, add, axpy, cross_terms, is_finite, load, norm_inf, scale, solve, sub
 
 EPS = np.finfo(np.float64).eps
 SQRT_EPS = np.sqrt(EPS)
@@ -48,15 +48,21 @@ def advance(x, comp, dx):
 
 
 @njit(inline="always")
-def rk4_step(model, eps, hamiltonian, buf, x, comp, h):
-    """Classical Runge-Kutta, order 4: the generic, structure-blind baseline (Hairer, Norsett,
-    Wanner, *Solving ODEs I*, section II.1).  Four field evaluations, no H or S."""
+def rk4_increment(model, eps, hamiltonian, buf, x, h):
+    """The classical Runge-Kutta increment ``h (k1 + 2 k2 + 2 k3 + k4) / 6``, order 4 (Hairer,
+    Norsett, Wanner, *Solving ODEs I*, section II.1).  Four field evaluations."""
     k1 = field(model, eps, hamiltonian, buf, x)
     k2 = field(model, eps, hamiltonian, buf, axpy(0.5 * h, k1, x))
     k3 = field(model, eps, hamiltonian, buf, axpy(0.5 * h, k2, x))
     k4 = field(model, eps, hamiltonian, buf, axpy(h, k3, x))
-    incr = add(add(k1, k4), scale(2.0, add(k2, k3)))
-    x_new, comp_new = advance(x, comp, scale(h / 6.0, incr))
+    return scale(h / 6.0, add(add(k1, k4), scale(2.0, add(k2, k3))))
+
+
+@njit(inline="always")
+def rk4_step(model, eps, hamiltonian, buf, x, comp, h):
+    """Classical Runge-Kutta, order 4: the generic, structure-blind baseline.  Four field evaluations,
+    no H or S."""
+    x_new, comp_new = advance(x, comp, rk4_increment(model, eps, hamiltonian, buf, x, h))
     status = OK if is_finite(x_new) else NON_FINITE
     return StepResult(x_new, comp_new, np.nan, np.nan, status, 0, 4, 0.0, UNKNOWN)
 
@@ -160,9 +166,10 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
     composition).  It is accepted when
 
     * **converged**: the correction is within 4 ulp of the increment (of
-      ``|dx|`` and of the terms of ``h F``: not of ``|x|``, so that a state
-      resting near an equilibrium, where ``|dx| << |x|``, does not random-walk
-      by the solution error), or
+      ``|dx|`` and of the terms of ``h F``, component by component,
+      ``vec3.cross_terms``: not of ``|x|``, so that a state resting near an
+      equilibrium, where ``|dx| << |x|``, does not random-walk by the solution
+      error), or
     * **contracting**: with the contraction rate ``theta`` measured from two
       corrections, ``theta / (1 - theta) |correction|`` bounds the distance from
       the corrected iterate to the root (Hairer & Wanner, *Solving ODEs II*,
@@ -182,7 +189,8 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
       finite-difference Jacobian of the discrete residual at the iterate (Newton's
       method proper: the hard cases, far from the simplified matrix).
 
-    Fails on divergence, on a spurious root, after ``max_iter`` iterations; a
+    Fails on divergence, on a spurious root, at a fixed point (zero correction)
+    that is not exact, after ``max_iter`` iterations; a
     non-finite value is reported as such, naming the user function that gave it.
     """
     direction = np.sign(h)
@@ -207,12 +215,14 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
         correction = solve(m, sub(dx, scale(h, F)))
         error = norm_inf(correction)
         size = max(norm_inf(x_new), norm_inf(dx))
-        terms_h = term_scale(H_x, H_new, dg_h, x_new)
-        terms_s = term_scale(S_x, S_new, dg_s, x_new)
-        # the round-off of the increment itself: of |dx| and of h F (terms |dgH| (|Jbar| + eps |dgH| |dgS|))
-        resolution = EPS * (norm_inf(dx) + abs(h) * scales[1] * (scales[0] + eps * scales[1] * scales[2]))
-        exact = _kept(H_x, H_new, terms_h, ACCEPT_ULPS, 0.0) and _kept(S_x, S_new, terms_s, ACCEPT_S_ULPS, direction)
+        terms_h = term_scale(H_x, H_new, dg_h, x_new, origin_terms(model.origin, 0, x_new))
+        terms_s = term_scale(S_x, S_new, dg_s, x_new, origin_terms(model.origin, 4, x_new))
+        # the round-off of the increment itself: of |dx| and of h F, component by component (the terms of
+        # dgH x Jbar + eps dgH x (dgH x dgS): a zero product rounds to nothing, however large the vectors)
+        terms_f = axpy(eps, cross_terms(dg_h, cross_terms(dg_h, dg_s)), cross_terms(dg_h, axial))
+        resolution = EPS * (norm_inf(dx) + abs(h) * norm_inf(terms_f))
         converged = error <= 4.0 * resolution
+        exact = _kept(H_x, H_new, terms_h, ACCEPT_ULPS, 0.0) and _kept(S_x, S_new, terms_s, ACCEPT_S_ULPS, direction)
         if converged and not (_kept(H_x, H_new, terms_h, GUARD, 0.0) and _kept(S_x, S_new, terms_s, GUARD, direction)):
             break  # a spurious root: the invariants the scheme guarantees are far off
         theta = error / previous
@@ -229,8 +239,8 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
         floor = 4.0 * resolution + 2.0 * abs(h) * noise
         if stalled and exact and (error <= 16.0 * floor or error <= SQRT_EPS * size):
             return OK, x_new, comp_new, H_new, S_new, iteration, evaluations, first_theta, UNKNOWN
-        if not (error <= 1e3 * reach):
-            break  # diverged
+        if not (error <= 1e3 * reach) or error == 0.0:
+            break  # diverged, or a fixed point that is not exact: no iteration moves it
         if stalled:  # Newton's method proper from here: the Jacobian of the discrete residual at the iterate
             m = _residual_matrix(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h, x_new, scales)
             evaluations += 4
@@ -284,9 +294,11 @@ def discrete_gradient_step(kind, max_iter, damped, compensated, coeffs, model, e
     the start is the increment extrapolated from the slot's last three
     (error O(h^4)).  Without a history (first step, a new ``h``) the Jacobian
     is taken at ``x`` and the start is the linearly implicit midpoint predictor
-    ``(I - h/2 D xi)^-1 h xi(x)``.  A failed attempt is retried that way; if
-    that fails too, once more with the step anchored to H(x_n) instead of
-    H(x0).  Why: near an equilibrium a step moves by ``|dx| << |x|``, and
+    ``(I - h/2 D xi)^-1 h xi(x)``.  A failed attempt is retried that way; then
+    from the explicit RK4 increment (O(h^5) from the flow, so O(h^3) from the
+    root: it converges where a step near the time scale defeats the linear
+    predictor, as a composition's long backward sub-step can); if that fails
+    too, once more with the step anchored to H(x_n) instead of H(x0).  Why: near an equilibrium a step moves by ``|dx| << |x|``, and
     removing an energy offset of a few ulps (``|H(x_n) - H(x0)|``) would need a
     discrete-gradient correction ~ ulp / |dx| that is noise; the un-anchored
     step keeps ``H(x') = H(x_n)`` to round-off, and later steps, anchored
@@ -301,11 +313,14 @@ def discrete_gradient_step(kind, max_iter, damped, compensated, coeffs, model, e
     iterations = 0
     fresh = False
     target = H_x
-    for attempt in range(3):
+    for attempt in range(4):
         if attempt == 0 and work[W_HISTORY] > 0.0 and work[W_H] == h and work[W_JACOBIAN_VALID] > 0.0:
             dx = _predictor(work)
         elif attempt == 1 and fresh:
             continue  # the first attempt already started from a fresh Jacobian
+        elif attempt == 2:
+            dx = rk4_increment(model, eps, hamiltonian, buf, x, h)
+            evaluations += 4
         else:
             f0 = field(model, eps, hamiltonian, buf, x)
             c0, c1, c2 = _jacobian(model, eps, hamiltonian, buf, x, f0)
@@ -313,7 +328,7 @@ def discrete_gradient_step(kind, max_iter, damped, compensated, coeffs, model, e
             evaluations += 4
             fresh = True
             dx = _start(work, h, f0)
-            if attempt == 2:
+            if attempt == 3:
                 target = model.H(load(buf, x), model.params)
         status, x_new, comp_new, H_new, S_new, it, ev, rate, culprit = _newton(
             kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, target, S_x, h, dx, _newton_matrix(work, h)

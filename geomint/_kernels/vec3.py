@@ -40,6 +40,13 @@ def cross(u, v):
 
 
 @njit(inline="always")
+def cross_terms(u, v):
+    """``(|u_1 v_2| + |u_2 v_1|, ...)``: per component, the size of the terms of ``u x v`` (its round-off
+    is an ulp of that, however much the terms cancel, and 0 where they are 0)."""
+    return (abs(u[1] * v[2]) + abs(u[2] * v[1]), abs(u[2] * v[0]) + abs(u[0] * v[2]), abs(u[0] * v[1]) + abs(u[1] * v[0]))
+
+
+@njit(inline="always")
 def norm_inf(u):
     return max(abs(u[0]), abs(u[1]), abs(u[2]))
 
