@@ -67,6 +67,8 @@ def solve(system, x0, t_span, h, method="gonzalez", save_every=1, progress=None)
     """
     if not isinstance(system, MetriplecticSystem):
         raise TypeError(f"`system` must be a geomint.MetriplecticSystem; got {type(system).__name__}.")
+    if progress is not None and not callable(progress):
+        raise TypeError(f"`progress` must be None or a callable taking the steps done; got {progress!r}.")
     integrator = resolve(method)
     if not integrator.whole_field and system.eps != 0.0:
         raise ValueError(

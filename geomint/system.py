@@ -135,6 +135,7 @@ class MetriplecticSystem:
             poisson=J if J is not None else P,
             vector_form=forms["grad_H"], poisson_form="axial" if J is not None else "matrix",
         )
+        _check_shapes(self.functions, self._params)
         self.exact_flows = _check_exact_flows(exact_flows)
         if check:
             _check_structure(self)
@@ -347,7 +348,26 @@ def _matrix_function(name, fn):
         raise TypeError(f"`{name}` must return a (3, 3) contiguous float64 array; it returns {rtype}.")
 
 
+def _check_shapes(functions, params):
+    """Array-returning functions give 3 values (P a 3x3 matrix) at a sample point: their type cannot
+    say so, and the kernels would read past a shorter array."""
+    wanted = {"grad_H": (functions.grad_H, (3,)), "grad_S": (functions.grad_S, (3,))}
+    wanted["P" if functions.poisson_form == "matrix" else "J"] = (
+        functions.poisson, (3, 3) if functions.poisson_form == "matrix" else (3,))
+    for name, (fn, shape) in wanted.items():
+        x = _SAMPLES[0].copy()
+        try:
+            value = fn(x, params)
+        except Exception:  # noqa: BLE001 - undefined at this point is the structure check's business
+            continue
+        if np.shape(value) != shape:
+            raise ValueError(f"`{name}` must return shape {shape}; at x = {x.tolist()} it returned shape "
+                             f"{np.shape(value)}.")
+
+
 def _check_eps(eps):
+    if isinstance(eps, (bool, np.bool_, str)):
+        raise TypeError(f"`eps` must be a real number; got {eps!r} ({type(eps).__name__}).")
     try:
         value = float(eps)
     except (TypeError, ValueError):

@@ -94,3 +94,8 @@ def test_non_finite_state_is_a_status_not_a_nan():
     assert "non-finite" in sol.message and f"Step {sol.failed_step} " in sol.message
     assert np.all(np.isfinite(sol.x)) and np.all(np.isfinite(sol.H))
     assert sol.n_steps == sol.failed_step - 1
+
+
+def test_a_progress_that_is_not_callable_is_refused_before_any_step():
+    with pytest.raises(TypeError, match=r"`progress` must be None or a callable taking the steps done; got 5"):
+        geomint.solve(BODY, X0, (0.0, 1.0), 0.1, progress=5)

@@ -185,6 +185,24 @@ def test_wrong_return_types_are_refused():
         _oscillator(J=_P)
 
 
+@numba.njit
+def _grad_H_five(x, p):
+    return np.array([x[0], x[1], x[2], 0.0, 0.0])
+
+
+@numba.njit
+def _P_two_by_two(x, p):
+    return np.zeros((2, 2))
+
+
+def test_arrays_of_the_wrong_shape_are_refused_with_the_shape():
+    """An array's type does not carry its length: the kernels would read past a shorter one."""
+    with pytest.raises(ValueError, match=r"`grad_H` must return shape \(3,\); at x = \[.*\] it returned shape \(5,\)"):
+        _oscillator(grad_H=_grad_H_five, grad_S=_grad_S_array, J=_J_array)
+    with pytest.raises(ValueError, match=r"`P` must return shape \(3, 3\); .* it returned shape \(2, 2\)"):
+        _oscillator(J=None, P=_P_two_by_two)
+
+
 def test_poisson_tensor_is_given_exactly_once():
     with pytest.raises(ValueError, match=r"exactly one of `J`.*and `P`"):
         _oscillator(P=_P)
@@ -202,6 +220,7 @@ def test_inconsistent_gradient_is_caught():
     (-0.1, ValueError, r"`eps` must be finite and >= 0; got -0.1"),
     (float("nan"), ValueError, r"`eps` must be finite and >= 0"),
     ("big", TypeError, r"`eps` must be a real number"),
+    (True, TypeError, r"`eps` must be a real number; got True \(bool\)"),
 ])
 def test_bad_eps(eps, error, match):
     with pytest.raises(error, match=match):
