@@ -55,7 +55,7 @@ from .vec3 import ZERO, add, as_vector, axpy, dot, is_finite, load, norm_inf, su
 ANCHOR_ULPS = 2.0
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def _invariants(model, buf, x):
     load(buf, x)
     return model.H(buf, model.params), model.S(buf, model.params)

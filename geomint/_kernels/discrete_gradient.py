@@ -56,7 +56,7 @@ EPS = np.finfo(np.float64).eps
 SWITCH = EPS ** (1.0 / 3.0)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def term_scale(f_old, f_new, gradient, x, base):
     """``max(|F(x)|, |F(x')|, sum_i |d_i F x_i|, base)``: the size of the terms of F (module docstring);
     ``base`` is ``origin_terms`` at x."""
@@ -64,14 +64,14 @@ def term_scale(f_old, f_new, gradient, x, base):
                base)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def origin_terms(origin, at, x):
     """``|F(0)| + sum_i |d_i F(0) x_i|``, with ``F(0), grad F(0)`` at ``origin[at:at + 4]``
     (``layout.Model.origin``: H at 0, S at 4): the constant and linear terms of F at x."""
     return abs(origin[at]) + abs(origin[at + 1] * x[0]) + abs(origin[at + 2] * x[1]) + abs(origin[at + 3] * x[2])
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def gonzalez(grad_mid, f_old, f_new, dx, x_new, gain, base):
     """Gonzalez's discrete gradient (J. Nonlinear Sci. 6 (1996) 449, doi:10.1007/BF02440162).
 
@@ -105,19 +105,19 @@ def gonzalez(grad_mid, f_old, f_new, dx, x_new, gain, base):
     return axpy(defect / largest / length2, unit, grad_mid), bound / (largest * np.sqrt(length2))
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def _vertex(x, x_new, mask):
     """The corner of the box spanned by ``x, x'`` with coordinate i from x' where bit i of ``mask`` is set."""
     return (x_new[0] if mask & 1 else x[0], x_new[1] if mask & 2 else x[1], x_new[2] if mask & 4 else x[2])
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def _value(F, params, buf, x, x_new, mask):
     load(buf, _vertex(x, x_new, mask))
     return F(buf, params)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def _edge_quotient(grad_F, params, buf, x, x_new, i, mask, f_lo, f_hi, size, base):
     """``[F(hi) - F(lo)] / (x'_i - x_i)`` along the box edge from corner ``mask`` in direction i.
 
@@ -134,7 +134,7 @@ def _edge_quotient(grad_F, params, buf, x, x_new, i, mask, f_lo, f_hi, size, bas
     return (f_hi - f_lo) / d, 4.0 * EPS * (abs(f_lo) + abs(f_hi) + base) / abs(d)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, base):
     """Itoh-Abe's discrete gradient (J. Comput. Phys. 76 (1988) 85, doi:10.1016/0021-9991(88)90132-5).
 
@@ -151,7 +151,7 @@ def itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, base):
     return (q0, q1, q2), max(n0, n1, n2)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def _symmetrized_component(grad_F, params, buf, x, x_new, f, i, size, base):
     """Component i of Itoh-Abe's gradient averaged over the 6 orderings.
 
@@ -168,7 +168,7 @@ def _symmetrized_component(grad_F, params, buf, x, x_new, f, i, size, base):
     return (2.0 * q0 + q1 + q2 + 2.0 * q3) / 6.0, max(n0, n1, n2, n3)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def symmetrized_itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, base):
     """Itoh-Abe's discrete gradient averaged over all 6 orderings of the coordinates.
 
@@ -193,7 +193,7 @@ def symmetrized_itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, b
     return (q0, q1, q2), max(n0, n1, n2)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def average_gradient(grad_F, params, buf, x, dx, coeffs):
     """``sum_k w_k grad F(x + s_k dx)``, nodes ``s = coeffs[:n]``, weights ``w = coeffs[n:]`` on [0, 1]."""
     n = coeffs.shape[0] // 2
@@ -204,14 +204,14 @@ def average_gradient(grad_F, params, buf, x, dx, coeffs):
     return total
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def _gonzalez_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
     dx = sub(x_new, x)
     load(buf, axpy(0.5, dx, x))
     return gonzalez(as_vector(grad_F(buf, params)), f_old, f_new, dx, x_new, gain, base)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def _avf_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
     """AVF: the Gauss-Legendre average of grad F on the segment (Quispel, McLaren, J. Phys. A 41
     (2008) 045206, doi:10.1088/1751-8113/41/4/045206), made an exact discrete gradient for any F by
@@ -221,7 +221,7 @@ def _avf_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, 
     return gonzalez(average_gradient(grad_F, params, buf, x, dx, coeffs), f_old, f_new, dx, x_new, gain, base)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def _exact(dg_noise, f_old, f_new, x, x_new, gain, base):
     """An Itoh-Abe gradient made exact again where edges switched to derivatives (module docstring):
     Gonzalez's projection of it onto ``dg . dx = F(x') - F(x)``, applied only where the defect exceeds
@@ -231,13 +231,13 @@ def _exact(dg_noise, f_old, f_new, x, x_new, gain, base):
     return exact, max(noise, more)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def _itoh_abe_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
     return _exact(itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, base), f_old, f_new, x, x_new, gain,
                   base)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def _symmetrized_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
     return _exact(symmetrized_itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, base), f_old, f_new, x,
                   x_new, gain, base)
@@ -281,7 +281,7 @@ def _discrete_gradient_typed(kind, coeffs, F, grad_F, params, buf, x, x_new, f_o
     )
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def discrete_axial(axial, grad_s):
     """``Jbar = (J . n) n`` with ``n = dgS / |dgS|``: parallel to dgS, so S is a Casimir.
 
@@ -298,7 +298,7 @@ def discrete_axial(axial, grad_s):
     return scale(dot(axial, n) / dot(n, n), n)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def polish(F, dg_h, dg_s, eps):
     """F with ``F . dgH = 0`` and ``F . dgS = -eps |dgH x dgS|^2`` restored to the rounding of |F|.
 
@@ -331,7 +331,7 @@ def polish(F, dg_h, dg_s, eps):
     return axpy((rate - dot(F, v)) / ww, w, F)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def discrete_field(kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales):
     """The discrete field F(x, x') and ``(H(x'), S(x'), dgH, dgS, Jbar, noise)``.
 
@@ -340,9 +340,6 @@ def discrete_field(kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, 
     dgS moves the step ``x' = x + h F`` (Gonzalez's switching rule):
     ``|h| (|J| + 2 eps |dgH| |dgS|)`` for dgH and ``|h| (|J| / |dgS| + eps |dgH|^2)``
     for dgS (through the direction of ``Jbar``).
-
-    Inlined into its two callers (the Newton loop and ``steps._residual``): a
-    run compiles one discrete gradient, so the copies stay small.
 
     ``J`` is called only with the Hamiltonian part on (else ``Jbar = 0``); S and
     its gradient are always needed, to keep ``Jbar`` parallel to dgS.

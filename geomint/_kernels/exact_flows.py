@@ -194,7 +194,7 @@ def rigid_body_flow_at(a, b, c, m, times, out):
         out[i, 0], out[i, 1], out[i, 2] = rigid_body_flow(a, b, c, m, times[i])
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def rotate(x, axis, angle):
     """``x`` rotated by ``angle`` about the coordinate axis ``axis`` (right-handed)."""
     j, k = (axis + 1) % 3, (axis + 2) % 3
@@ -203,7 +203,7 @@ def rotate(x, axis, angle):
     return _set(out, k, sn * x[j] + cs * x[k])
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def rotor_splitting(grad_H, params, buf, x, h):
     """One step of the symmetric free-rotor splitting of ``m' = grad H x m``, order 2.
 
@@ -219,7 +219,7 @@ def rotor_splitting(grad_H, params, buf, x, h):
     return x
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def rotation(J, params, buf, x, h):
     """The exact flow of ``x' = x x J`` with ``J`` constant: a rotation about ``J`` by ``-|J| h``.
 

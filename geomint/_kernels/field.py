@@ -24,7 +24,7 @@ SAFE_LOW = 2.0**-200
 SAFE_HIGH = 2.0**200
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def dissipative(grad_h, grad_s, eps, base):
     """``base + eps * grad_h x (grad_h x grad_s)``.
 
@@ -50,7 +50,7 @@ def dissipative(grad_h, grad_s, eps, base):
     return axpy(math.ldexp(eps, 2 * i + j), cross(u, cross(u, v)), base)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def field(model, eps, hamiltonian, buf, x):
     """The metriplectic field xi(x), with only the switched-on parts evaluated."""
     load(buf, x)

@@ -24,14 +24,14 @@ EPS = np.finfo(np.float64).eps
 SQRT_EPS = np.sqrt(EPS)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def rise_tolerance(S_old, S_new, grad_s, x, base):
     """Round-off in ``S(x') - S(x)``: ``2 eps max(|S|, |S'|, |grad S|_inf |x|_inf, base)``, ``base`` the
     constant and linear terms of S (``discrete_gradient.origin_terms``)."""
     return 2.0 * EPS * max(abs(S_old), abs(S_new), norm_inf(grad_s) * norm_inf(x), base)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def project_energy(model, buf, x, target, max_iter):
     """``(y, H(y), iterations)``: ``y = x + lambda grad H(x)`` with ``H(y) = target`` to round-off.
 
@@ -63,7 +63,7 @@ def project_energy(model, buf, x, target, max_iter):
     return best, best_H, max_iter
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def project_both(model, buf, x, H_target, S_target, max_iter):
     """``(y, H(y), S(y), converged, iterations)``: ``y = x + lambda grad H(x) + mu grad S(x)``
     with ``H(y) = H_target`` and ``S(y) = S_target``, by Newton's method on ``(lambda, mu)``.

@@ -19,7 +19,7 @@ from .layout import (
     NEWTON_FAILED, NON_FINITE, OK, UNKNOWN, W_DX1, W_DX2, W_DX3, W_H, W_HISTORY, W_JACOBIAN, W_JACOBIAN_VALID,
     StepResult,
 )
-from .vec3 import ZERO, add, axpy, cross_terms, is_finite, load, norm_inf, scale, solve, sub
+from .vec3 import ZERO, add, axpy, is_finite, load, norm_inf, scale, solve, sub
 
 EPS = np.finfo(np.float64).eps
 SQRT_EPS = np.sqrt(EPS)
@@ -35,7 +35,7 @@ ACCEPT_S_ULPS = 2.0
 THETA_REFRESH = 1e-2
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def advance(x, comp, dx):
     """``x + dx`` by compensated summation; returns ``(x_new, comp_new)``.
 
@@ -47,7 +47,7 @@ def advance(x, comp, dx):
     return x_new, sub(sub(x_new, x), y)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def rk4_increment(model, eps, hamiltonian, buf, x, h):
     """The classical Runge-Kutta increment ``h (k1 + 2 k2 + 2 k3 + k4) / 6``, order 4 (Hairer,
     Norsett, Wanner, *Solving ODEs I*, section II.1).  Four field evaluations."""
@@ -58,7 +58,7 @@ def rk4_increment(model, eps, hamiltonian, buf, x, h):
     return scale(h / 6.0, add(add(k1, k4), scale(2.0, add(k2, k3))))
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def rk4_step(model, eps, hamiltonian, buf, x, comp, h):
     """Classical Runge-Kutta, order 4: the generic, structure-blind baseline.  Four field evaluations,
     no H or S."""
@@ -67,7 +67,7 @@ def rk4_step(model, eps, hamiltonian, buf, x, comp, h):
     return StepResult(x_new, comp_new, np.nan, np.nan, status, 0, 4, 0.0, UNKNOWN)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def _jacobian(model, eps, hamiltonian, buf, x, f0):
     """Columns of ``D xi(x)`` by forward differences (3 field calls); ``f0 = xi(x)``."""
     size = norm_inf(x)
@@ -78,7 +78,7 @@ def _jacobian(model, eps, hamiltonian, buf, x, f0):
     return c0, c1, c2
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def damping_factor(model, eps, buf, x, h):
     """``phi = 1 / sqrt(1 + (h kappa / 2)^2)``, ``kappa = |D (eps xi_g)(x)|_inf`` (4 gradient calls).
 
@@ -101,7 +101,7 @@ def damping_factor(model, eps, buf, x, h):
     return 1.0 / np.sqrt(1.0 + z * z)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def _store_jacobian(work, c0, c1, c2):
     for k in range(3):
         work[W_JACOBIAN + k] = c0[k]
@@ -110,7 +110,7 @@ def _store_jacobian(work, c0, c1, c2):
     work[W_JACOBIAN_VALID] = 1.0
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def _newton_matrix(work, h):
     """Rows of ``I - h/2 D xi`` from the slot's stored Jacobian (columns)."""
     a = -0.5 * h
@@ -143,7 +143,7 @@ def _residual_matrix(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h,
     return ((c0[0], c1[0], c2[0]), (c0[1], c1[1], c2[1]), (c0[2], c1[2], c2[2]))
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def _kept(old, new, terms, ulps, direction):
     """``new - old`` within ``ulps`` of ``terms``: in absolute value (``direction = 0``), or not
     rising along ``direction`` (the sign of ``h``: S must not rise forward, not fall backward)."""
@@ -166,10 +166,9 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
     composition).  It is accepted when
 
     * **converged**: the correction is within 4 ulp of the increment (of
-      ``|dx|`` and of the terms of ``h F``, component by component,
-      ``vec3.cross_terms``: not of ``|x|``, so that a state resting near an
-      equilibrium, where ``|dx| << |x|``, does not random-walk by the solution
-      error), or
+      ``|dx|`` and of the terms of ``h F``: not of ``|x|``, so that a state
+      resting near an equilibrium, where ``|dx| << |x|``, does not random-walk
+      by the solution error), or
     * **contracting**: with the contraction rate ``theta`` measured from two
       corrections, ``theta / (1 - theta) |correction|`` bounds the distance from
       the corrected iterate to the root (Hairer & Wanner, *Solving ODEs II*,
@@ -217,10 +216,8 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
         size = max(norm_inf(x_new), norm_inf(dx))
         terms_h = term_scale(H_x, H_new, dg_h, x_new, origin_terms(model.origin, 0, x_new))
         terms_s = term_scale(S_x, S_new, dg_s, x_new, origin_terms(model.origin, 4, x_new))
-        # the round-off of the increment itself: of |dx| and of h F, component by component (the terms of
-        # dgH x Jbar + eps dgH x (dgH x dgS): a zero product rounds to nothing, however large the vectors)
-        terms_f = axpy(eps, cross_terms(dg_h, cross_terms(dg_h, dg_s)), cross_terms(dg_h, axial))
-        resolution = EPS * (norm_inf(dx) + abs(h) * norm_inf(terms_f))
+        # the round-off of the increment itself: of |dx| and of h F (terms |dgH| (|Jbar| + eps |dgH| |dgS|))
+        resolution = EPS * (norm_inf(dx) + abs(h) * scales[1] * (scales[0] + eps * scales[1] * scales[2]))
         converged = error <= 4.0 * resolution
         exact = _kept(H_x, H_new, terms_h, ACCEPT_ULPS, 0.0) and _kept(S_x, S_new, terms_s, ACCEPT_S_ULPS, direction)
         if converged and not (_kept(H_x, H_new, terms_h, GUARD, 0.0) and _kept(S_x, S_new, terms_s, GUARD, direction)):
@@ -251,7 +248,7 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
     return NEWTON_FAILED, x_new, comp_new, H_x, S_x, iteration, evaluations, error, UNKNOWN
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def _predictor(work):
     """The increment extrapolated from the slot's last (up to) three of the same ``h``:
     ``dx_1``, ``2 dx_1 - dx_2`` or ``3 dx_1 - 3 dx_2 + dx_3``, error O(h^2), O(h^3), O(h^4)."""
@@ -265,7 +262,7 @@ def _predictor(work):
     return add(scale(3.0, sub(d1, d2)), d3)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def _remember(work, dx, h):
     same = work[W_H] == h and work[W_HISTORY] > 0.0
     for k in range(3):
@@ -348,7 +345,7 @@ def discrete_gradient_step(kind, max_iter, damped, compensated, coeffs, model, e
     return StepResult(x_new, comp_new, H_new, S_new, OK, iterations, evaluations, float(attempt), UNKNOWN)
 
 
-@njit(inline="always")
+@njit(error_model="numpy")
 def _start(work, h, f0):
     """The linearly implicit midpoint increment ``(I - h/2 D xi)^-1 h xi(x)`` (explicit Euler where
     that matrix is nearly singular)."""

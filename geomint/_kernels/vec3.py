@@ -40,13 +40,6 @@ def cross(u, v):
 
 
 @njit(inline="always")
-def cross_terms(u, v):
-    """``(|u_1 v_2| + |u_2 v_1|, ...)``: per component, the size of the terms of ``u x v`` (its round-off
-    is an ulp of that, however much the terms cancel, and 0 where they are 0)."""
-    return (abs(u[1] * v[2]) + abs(u[2] * v[1]), abs(u[2] * v[0]) + abs(u[0] * v[2]), abs(u[0] * v[1]) + abs(u[1] * v[0]))
-
-
-@njit(inline="always")
 def norm_inf(u):
     return max(abs(u[0]), abs(u[1]), abs(u[2]))
 
@@ -95,7 +88,7 @@ def as_vector(v):
     return (v[0], v[1], v[2])
 
 
-@overload(as_vector, inline="always")
+@overload(as_vector)
 def _as_vector(v):
     if isinstance(v, types.Array) and v.ndim == 2:
         return lambda v: (v[1, 2], -v[0, 2], v[0, 1])
