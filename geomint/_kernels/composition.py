@@ -164,6 +164,19 @@ def _symmetric_projection(coeffs, iopts, model, eps, hamiltonian, buf, x, target
 
 
 @njit(error_model="numpy")
+def _on_level(model, buf, y, H_y, S_y, anchor, S_x):
+    """``y`` is on ``H = anchor`` as a projection must leave it (64 ulp of the terms of H) and S has
+    not risen beyond round-off (False where H or S is not known, as after an RK4 step)."""
+    if not (np.isfinite(H_y) and np.isfinite(S_y)):
+        return False
+    load(buf, y)
+    grad_h = as_vector(model.grad_H(buf, model.params))
+    grad_s = as_vector(model.grad_S(buf, model.params))
+    return (_kept(anchor, H_y, term_scale(anchor, H_y, grad_h, y, origin_terms(model.origin, 0, y)), 64.0, 0.0)
+            and S_y - S_x <= rise_tolerance(S_x, S_y, grad_s, y, origin_terms(model.origin, 4, y)))
+
+
+@njit(error_model="numpy")
 def _pull_back(model, buf, y, H_y, S_y, anchor, S_limit, max_iter):
     """``y`` moved along grad H back onto ``H = anchor`` when it strayed beyond ``ANCHOR_ULPS`` of the
     terms of H (see the module docstring), keeping S at most ``S_limit`` (S at the start of the full
@@ -214,6 +227,7 @@ def composed_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, 
         y, comp_y, H_y, S_y = r.x, r.comp, r.H, r.S
     max_iter = iopts[P_MAX_ITER]
     if projection != NO_PROJECTION:
+        y_step, H_step, S_step = y, H_y, S_y
         y, H_y, it = project_energy(model, buf, y, H_anchor, max_iter)
         evaluations += it + 2
         comp_y = ZERO
@@ -225,6 +239,10 @@ def composed_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, 
         if S_y - S_x > rise_tolerance(S_x, S_y, grad_s, y, origin_terms(model.origin, 4, y)):
             y, H_y, S_y, converged, it = project_both(model, buf, y, H_anchor, S_x, max_iter)
             evaluations += it + 1
+            if not converged and _on_level(model, buf, y_step, H_step, S_step, H_anchor, S_x):
+                # near an equilibrium of the gradient part grad S || grad H and the two conditions are
+                # nearly one; the step's own state (an energy-exact base) already meets both
+                y, H_y, S_y, converged = y_step, H_step, S_step, True
             if not converged:
                 return StepResult(y, comp_y, H_y, S_y, PROJECTION_FAILED, iterations, evaluations, residual, UNKNOWN), rises, fired
     elif iopts[P_ANCHOR]:

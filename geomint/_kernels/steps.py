@@ -163,7 +163,8 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
     iterate is accepted only if it *is* exact: H within ``ACCEPT_ULPS`` of its
     terms of the anchor ``H_x``, S not above ``S_x`` by more than
     ``ACCEPT_S_ULPS`` (not below it for ``h < 0``, the backward sub-steps of a
-    composition).  It is accepted when
+    composition; within ``ACCEPT_ULPS`` either way where eps = 0, a Hamiltonian
+    sub-step, which keeps the Casimir S as it keeps H).  It is accepted when
 
     * **converged**: the correction is within 4 ulp of the increment (of
       ``|dx|`` and of the terms of ``h F``: not of ``|x|``, so that a state
@@ -193,6 +194,9 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
     non-finite value is reported as such, naming the user function that gave it.
     """
     direction = np.sign(h)
+    # a step without dissipation (eps = 0: the Hamiltonian sub-step of a splitting) keeps the Casimir S
+    # as it keeps H, to ACCEPT_ULPS either way; a dissipative one must not raise it beyond ACCEPT_S_ULPS
+    s_ulps, s_direction = (ACCEPT_S_ULPS, direction) if eps > 0.0 else (ACCEPT_ULPS, 0.0)
     reach = norm_inf(x) + 4.0 * norm_inf(dx)
     x_new, comp_new = advance(x, comp, dx)
     evaluations = 0
@@ -219,8 +223,8 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
         # the round-off of the increment itself: of |dx| and of h F (terms |dgH| (|Jbar| + eps |dgH| |dgS|))
         resolution = EPS * (norm_inf(dx) + abs(h) * scales[1] * (scales[0] + eps * scales[1] * scales[2]))
         converged = error <= 4.0 * resolution
-        exact = _kept(H_x, H_new, terms_h, ACCEPT_ULPS, 0.0) and _kept(S_x, S_new, terms_s, ACCEPT_S_ULPS, direction)
-        if converged and not (_kept(H_x, H_new, terms_h, GUARD, 0.0) and _kept(S_x, S_new, terms_s, GUARD, direction)):
+        exact = _kept(H_x, H_new, terms_h, ACCEPT_ULPS, 0.0) and _kept(S_x, S_new, terms_s, s_ulps, s_direction)
+        if converged and not (_kept(H_x, H_new, terms_h, GUARD, 0.0) and _kept(S_x, S_new, terms_s, GUARD, s_direction)):
             break  # a spurious root: the invariants the scheme guarantees are far off
         theta = error / previous
         if iteration == 2:
@@ -230,7 +234,7 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
             load(buf, x_next)
             H_next, S_next = model.H(buf, model.params), model.S(buf, model.params)
             evaluations += 1
-            if _kept(H_x, H_next, terms_h, ACCEPT_ULPS, 0.0) and _kept(S_x, S_next, terms_s, ACCEPT_S_ULPS, direction):
+            if _kept(H_x, H_next, terms_h, ACCEPT_ULPS, 0.0) and _kept(S_x, S_next, terms_s, s_ulps, s_direction):
                 return OK, x_next, comp_next, H_next, S_next, iteration, evaluations, max(theta, first_theta), UNKNOWN
         stalled = converged or error >= 0.5 * best
         floor = 4.0 * resolution + 2.0 * abs(h) * noise
