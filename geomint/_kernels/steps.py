@@ -63,8 +63,23 @@ def rk4_step(model, eps, hamiltonian, buf, x, comp, h):
     """Classical Runge-Kutta, order 4: the generic, structure-blind baseline.  Four field evaluations,
     no H or S."""
     x_new, comp_new = advance(x, comp, rk4_increment(model, eps, hamiltonian, buf, x, h))
-    status = OK if is_finite(x_new) else NON_FINITE
-    return StepResult(x_new, comp_new, np.nan, np.nan, status, 0, 4, 0.0, UNKNOWN)
+    if is_finite(x_new):
+        return StepResult(x_new, comp_new, np.nan, np.nan, OK, 0, 4, 0.0, UNKNOWN)
+    return StepResult(x_new, comp_new, np.nan, np.nan, NON_FINITE, 0, 4, 0.0,
+                      _stage_culprit(model, eps, hamiltonian, buf, x, h))
+
+
+@njit(error_model="numpy")
+def _stage_culprit(model, eps, hamiltonian, buf, x, h):
+    """The user function that is not finite at the first RK4 stage point where one is not (0 if none):
+    a stage point can lie where the user's functions are undefined though x and x' do not."""
+    y = x
+    for c in (0.5, 0.5, 1.0, 0.0):
+        culprit = non_finite_culprit(model, buf, y, hamiltonian) if is_finite(y) else UNKNOWN
+        if culprit != UNKNOWN or c == 0.0:
+            return culprit
+        y = axpy(c * h, field(model, eps, hamiltonian, buf, y), x)
+    return UNKNOWN
 
 
 @njit(error_model="numpy")
@@ -144,6 +159,11 @@ def _residual_matrix(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h,
 
 
 @njit(error_model="numpy")
+def _abs_dot(u, v):
+    return abs(u[0] * v[0]) + abs(u[1] * v[1]) + abs(u[2] * v[2])
+
+
+@njit(error_model="numpy")
 def _kept(old, new, terms, ulps, direction):
     """``new - old`` within ``ulps`` of ``terms``: in absolute value (``direction = 0``), or not
     rising along ``direction`` (the sign of ``h``: S must not rise forward, not fall backward)."""
@@ -218,8 +238,11 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
         correction = solve(m, sub(dx, scale(h, F)))
         error = norm_inf(correction)
         size = max(norm_inf(x_new), norm_inf(dx))
-        terms_h = term_scale(H_x, H_new, dg_h, x_new, origin_terms(model.origin, 0, x_new))
-        terms_s = term_scale(S_x, S_new, dg_s, x_new, origin_terms(model.origin, 4, x_new))
+        # the terms of F and of the identity dgF . dx = F(x') - F(x) (the increment rounds at the size of the
+        # terms of h F, and carries that into F through dgF: at (1, 0, 0) on the Lorenz-Nevir system the
+        # terms of H are ~1e-5 while |dgH . dx| terms are ~1e-2)
+        terms_h = term_scale(H_x, H_new, dg_h, x_new, origin_terms(model.origin, 0, x_new)) + _abs_dot(dg_h, dx)
+        terms_s = term_scale(S_x, S_new, dg_s, x_new, origin_terms(model.origin, 4, x_new)) + _abs_dot(dg_s, dx)
         # the round-off of the increment itself: of |dx| and of h F (terms |dgH| (|Jbar| + eps |dgH| |dgS|))
         resolution = EPS * (norm_inf(dx) + abs(h) * scales[1] * (scales[0] + eps * scales[1] * scales[2]))
         converged = error <= 4.0 * resolution
