@@ -199,8 +199,10 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
       extrapolated start's error, below the threshold but of one sign, would
       add up) and the corrected iterate is accepted if exact (2 function
       values instead of a further discrete field).  A converged root far from
-      keeping H and S (``GUARD`` ulps) is a spurious root, reached from a step
-      far beyond the time scale: the attempt fails.
+      keeping H and S (``GUARD`` ulps, beyond what the remaining correction
+      moves them: a component of dx far smaller than |dx| is resolved only
+      as the iteration goes on) is a spurious root, reached from a step far
+      beyond the time scale: the attempt fails.
     * **at the floor**: a correction that no longer shrinks (half the best so
       far), is below 16 times the round-off floor (4 ulp of the increment plus
       ``|h|`` times the noise of the discrete-gradient quotients) or sqrt(eps)
@@ -247,8 +249,12 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
         resolution = EPS * (norm_inf(dx) + abs(h) * scales[1] * (scales[0] + eps * scales[1] * scales[2]))
         converged = error <= 4.0 * resolution
         exact = _kept(H_x, H_new, terms_h, ACCEPT_ULPS, 0.0) and _kept(S_x, S_new, terms_s, s_ulps, s_direction)
-        if converged and not (_kept(H_x, H_new, terms_h, GUARD, 0.0) and _kept(S_x, S_new, terms_s, GUARD, s_direction)):
-            break  # a spurious root: the invariants the scheme guarantees are far off
+        # a spurious root: the invariants the scheme guarantees are far off, by more than the remaining
+        # correction explains (a component of dx much smaller than |dx| is still being resolved)
+        if converged and not (_kept(H_x, H_new, terms_h + 8.0 * _abs_dot(dg_h, correction) / (GUARD * EPS), GUARD, 0.0)
+                              and _kept(S_x, S_new, terms_s + 8.0 * _abs_dot(dg_s, correction) / (GUARD * EPS), GUARD,
+                                        s_direction)):
+            break
         theta = error / previous
         if iteration == 2:
             first_theta = theta
