@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 from . import systems as _catalogue
 from .diagnostics import measured_order, observed_order, reference_solution  # noqa: F401 (re-exported for tests)
-from .integrators import INTEGRATORS, resolve
+from .integrators import INTEGRATORS
 from .solve import solve
 
 EPS = np.finfo(np.float64).eps

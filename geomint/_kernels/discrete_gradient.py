@@ -46,8 +46,8 @@ from numba import njit, types
 from numba.extending import overload
 
 from .field import dissipative
-from .layout import AVF, GONZALEZ, ITOH_ABE, SYMMETRIZED_ITOH_ABE, AVFKind, GonzalezKind, ItohAbeKind, SymmetrizedItohAbeKind
-from .vec3 import ZERO, as_vector, axpy, cross, dot, is_finite, load, norm_inf, scale, sub
+from .layout import AVF, ITOH_ABE, SYMMETRIZED_ITOH_ABE, AVFKind, GonzalezKind, ItohAbeKind, SymmetrizedItohAbeKind
+from .vec3 import ZERO, abs_dot, as_vector, axpy, cross, dot, is_finite, load, norm_inf, scale, sub
 
 EPS = np.finfo(np.float64).eps
 
@@ -60,8 +60,7 @@ SWITCH = EPS ** (1.0 / 3.0)
 def term_scale(f_old, f_new, gradient, x, base):
     """``max(|F(x)|, |F(x')|, sum_i |d_i F x_i|, base)``: the size of the terms of F (module docstring);
     ``base`` is ``origin_terms`` at x."""
-    return max(abs(f_old), abs(f_new), abs(gradient[0] * x[0]) + abs(gradient[1] * x[1]) + abs(gradient[2] * x[2]),
-               base)
+    return max(abs(f_old), abs(f_new), abs_dot(gradient, x), base)
 
 
 @njit(error_model="numpy")

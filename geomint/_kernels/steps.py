@@ -19,7 +19,7 @@ from .layout import (
     NEWTON_FAILED, NON_FINITE, OK, UNKNOWN, W_DX1, W_DX2, W_DX3, W_H, W_HISTORY, W_JACOBIAN, W_JACOBIAN_VALID,
     StepResult,
 )
-from .vec3 import ZERO, add, axpy, is_finite, load, norm_inf, scale, solve, sub
+from .vec3 import ZERO, abs_dot, add, axpy, is_finite, load, norm_inf, scale, solve, sub
 
 EPS = np.finfo(np.float64).eps
 SQRT_EPS = np.sqrt(EPS)
@@ -159,11 +159,6 @@ def _residual_matrix(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h,
 
 
 @njit(error_model="numpy")
-def _abs_dot(u, v):
-    return abs(u[0] * v[0]) + abs(u[1] * v[1]) + abs(u[2] * v[2])
-
-
-@njit(error_model="numpy")
 def _kept(old, new, terms, ulps, direction):
     """``new - old`` within ``ulps`` of ``terms``: in absolute value (``direction = 0``), or not
     rising along ``direction`` (the sign of ``h``: S must not rise forward, not fall backward)."""
@@ -243,16 +238,16 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
         # the terms of F and of the identity dgF . dx = F(x') - F(x) (the increment rounds at the size of the
         # terms of h F, and carries that into F through dgF: at (1, 0, 0) on the Lorenz-Nevir system the
         # terms of H are ~1e-5 while |dgH . dx| terms are ~1e-2)
-        terms_h = term_scale(H_x, H_new, dg_h, x_new, origin_terms(model.origin, 0, x_new)) + _abs_dot(dg_h, dx)
-        terms_s = term_scale(S_x, S_new, dg_s, x_new, origin_terms(model.origin, 4, x_new)) + _abs_dot(dg_s, dx)
+        terms_h = term_scale(H_x, H_new, dg_h, x_new, origin_terms(model.origin, 0, x_new)) + abs_dot(dg_h, dx)
+        terms_s = term_scale(S_x, S_new, dg_s, x_new, origin_terms(model.origin, 4, x_new)) + abs_dot(dg_s, dx)
         # the round-off of the increment itself: of |dx| and of h F (terms |dgH| (|Jbar| + eps |dgH| |dgS|))
         resolution = EPS * (norm_inf(dx) + abs(h) * scales[1] * (scales[0] + eps * scales[1] * scales[2]))
         converged = error <= 4.0 * resolution
         exact = _kept(H_x, H_new, terms_h, ACCEPT_ULPS, 0.0) and _kept(S_x, S_new, terms_s, s_ulps, s_direction)
         # a spurious root: the invariants the scheme guarantees are far off, by more than the remaining
         # correction explains (a component of dx much smaller than |dx| is still being resolved)
-        if converged and not (_kept(H_x, H_new, terms_h + 8.0 * _abs_dot(dg_h, correction) / (GUARD * EPS), GUARD, 0.0)
-                              and _kept(S_x, S_new, terms_s + 8.0 * _abs_dot(dg_s, correction) / (GUARD * EPS), GUARD,
+        if converged and not (_kept(H_x, H_new, terms_h + 8.0 * abs_dot(dg_h, correction) / (GUARD * EPS), GUARD, 0.0)
+                              and _kept(S_x, S_new, terms_s + 8.0 * abs_dot(dg_s, correction) / (GUARD * EPS), GUARD,
                                         s_direction)):
             break
         theta = error / previous

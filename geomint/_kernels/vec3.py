@@ -40,6 +40,12 @@ def cross(u, v):
 
 
 @njit(inline="always")
+def abs_dot(u, v):
+    """``sum_i |u_i v_i|``: the size of the terms of ``u . v``."""
+    return abs(u[0] * v[0]) + abs(u[1] * v[1]) + abs(u[2] * v[2])
+
+
+@njit(inline="always")
 def norm_inf(u):
     return max(abs(u[0]), abs(u[1]), abs(u[2]))
 
