@@ -5,6 +5,8 @@ from .integrators import (
     AVF, RK4, Composition, DampedGonzalez, Gonzalez, Integrator, ItohAbe, KahanLi6, KahanLi8, Lie, OscillatorRotation,
     Projected, RigidBodyFlow, RotorSplitting, Strang, Suzuki4, SuzukiUmeno8, SymmetrizedItohAbe, Yoshida4, Yoshida6,
 )
+from ._user_errors import UserFunctionError
+from .ensemble import Ensemble, solve_ensemble, sweep
 from .io import load
 from .scene import Scene, SceneError, SceneResult, run_scene
 from .solution import Solution
@@ -14,8 +16,9 @@ from .system import MetriplecticSystem
 __version__ = "0.1.0"
 
 __all__ = [
-    "AVF", "RK4", "Composition", "DampedGonzalez", "Gonzalez", "Integrator", "ItohAbe", "KahanLi6", "KahanLi8", "Lie",
-    "MetriplecticSystem", "OscillatorRotation", "Projected", "RigidBodyFlow", "RotorSplitting", "Scene", "SceneError",
-    "SceneResult", "Solution", "Strang", "Suzuki4", "SuzukiUmeno8", "SymmetrizedItohAbe", "Yoshida4", "Yoshida6",
-    "__version__", "analysis", "continuation", "diagnostics", "level_set", "load", "reference", "run_scene", "solve", "systems",
+    "AVF", "RK4", "Composition", "DampedGonzalez", "Ensemble", "Gonzalez", "Integrator", "ItohAbe", "KahanLi6",
+    "KahanLi8", "Lie", "MetriplecticSystem", "OscillatorRotation", "Projected", "RigidBodyFlow", "RotorSplitting",
+    "Scene", "SceneError", "SceneResult", "Solution", "Strang", "Suzuki4", "SuzukiUmeno8", "SymmetrizedItohAbe",
+    "UserFunctionError", "Yoshida4", "Yoshida6", "__version__", "analysis", "continuation", "diagnostics", "level_set",
+    "load", "reference", "run_scene", "solve", "solve_ensemble", "sweep", "systems",
 ]

@@ -6,39 +6,57 @@
     geomint drift                             Gonzalez vs RK4 drift on the relaxing rigid body
 
 SCENE is a scene file (TOML, see ``geomint.scene``) or the name of a bundled
-scene, e.g. ``geomint run rigid_body_distinct``.  A bad scene prints one line
-naming the file, the key and the problem (add ``--traceback`` for the trace).
+scene, e.g. ``geomint run rigid_body_distinct``.  Any error prints one line
+naming the file, key or option, the rule and the fix (add ``--traceback`` for
+the trace).  The output folder is checked before the run starts, and every file
+is written under a temporary name and then renamed, so none is ever partial.
 
 Exit codes: 0 success, 1 a run failed numerically (results up to the failure
-are written), 2 bad input (command line or scene).
+are written), 2 bad input (command line, scene or output folder), 3 an
+internal error, 130 interrupted by Ctrl-C (the trajectories done are written,
+marked "partial" in the summary).
 """
 
 import argparse
 import json
+import math
+import shutil
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
 from . import __version__
+from ._kernels.layout import INTERRUPTED as _INTERRUPTED
+from .io import atomic
 from .integrators import RK4, Gonzalez
 from .method_data import method_to_data, options_of, short_names
-from .scene import FIGURES, OBSERVABLES, SceneError, bundled_scenes, load, run_scene
-from .solve import solve
+from .scene import FIGURES, OBSERVABLES, CheckpointError, SceneError, bundled_scenes, load, run_scene
+from .solve import MAX_STEPS, solve
 from .systems import CATALOGUE, relaxing_rigid_body
 
-OK, FAILED, BAD_INPUT = 0, 1, 2
+OK, FAILED, BAD_INPUT, INTERNAL, INTERRUPTED = 0, 1, 2, 3, 130
 
 
-def _positive(kind):
-    def parse(text):
-        value = kind(text)
-        if not value > 0:
-            raise argparse.ArgumentTypeError(f"must be > 0; got {text}")
+def _number(kind, minimum, strict, maximum=math.inf):
+    """An argparse type: a finite ``kind`` in (minimum, maximum] (``strict``) or [minimum, maximum]."""
+    def number(text):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be {'an integer' if kind is int else 'a number'}; got {text!r}")
+        if not (math.isfinite(value) and (value > minimum if strict else value >= minimum) and value <= maximum):
+            bounds = f"{'>' if strict else '>='} {minimum:g}" + (f" and <= {maximum:g}" if maximum < math.inf else "")
+            raise argparse.ArgumentTypeError(f"must be finite and {bounds}; got {text}")
         return value
 
-    return parse
+    return number
+
+
+class OutputError(Exception):
+    """The output folder cannot take the results (checked before the run)."""
 
 
 def _parser():
@@ -48,18 +66,28 @@ def _parser():
     )
     parser.add_argument("--version", action="version", version=f"geomint {__version__}")
     commands = parser.add_subparsers(dest="command")
-    scene = argparse.ArgumentParser(add_help=False)
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--traceback", action="store_true", help="show the Python traceback of an error")
+    scene = argparse.ArgumentParser(add_help=False, parents=[common])
     scene.add_argument("scene", metavar="SCENE", help="a scene file (.toml) or the name of a bundled scene")
-    scene.add_argument("--traceback", action="store_true", help="show the Python traceback of an error")
     run = commands.add_parser("run", parents=[scene], help="run a scene: .npz data, JSON summary, PNG figures")
     run.add_argument("--out", metavar="DIR", type=Path, help="output folder (default: runs/<scene name>)")
     run.add_argument("--quiet", action="store_true", help="no progress bar and no report on stdout")
+    run.add_argument("--checkpoint-every", metavar="STEPS", type=_number(int, 0, True, MAX_STEPS),
+                     help="keep the run resumable: checkpoint in <out>/<name>.checkpoint/ every STEPS steps "
+                          "(and at Ctrl-C)")
+    run.add_argument("--resume", action="store_true",
+                     help="continue an interrupted run from its checkpoint (same scene, same --out); the results "
+                          "equal an uninterrupted run's bit for bit")
     commands.add_parser("show", parents=[scene], help="validate a scene and print it fully resolved")
-    commands.add_parser("list", help="catalogue systems, integrators and bundled scenes")
-    drift = commands.add_parser("drift", help="energy and Casimir drift: Gonzalez vs RK4 (the default)")
-    drift.add_argument("--steps", type=_positive(int), default=200_000, help="number of steps (default 200000)")
-    drift.add_argument("--h", type=_positive(float), default=0.05, help="step size (default 0.05)")
-    drift.add_argument("--eps", type=float, default=0.1, help="perturbation parameter (default 0.1)")
+    commands.add_parser("list", parents=[common], help="catalogue systems, integrators and bundled scenes")
+    drift = commands.add_parser("drift", parents=[common],
+                                help="energy and Casimir drift: Gonzalez vs RK4 (the default)")
+    drift.add_argument("--steps", type=_number(int, 0, True, MAX_STEPS), default=200_000,
+                       help="number of steps (default 200000)")
+    drift.add_argument("--h", type=_number(float, 0.0, True), default=0.05, help="step size (default 0.05)")
+    drift.add_argument("--eps", type=_number(float, 0.0, False), default=0.1,
+                       help="perturbation parameter (default 0.1)")
     return parser
 
 
@@ -83,12 +111,14 @@ def drift(steps, h, eps, out=None):
             f"{'ok' if sol.success else sol.message}",
             file=out,
         )
+        if sol.status == _INTERRUPTED:
+            return INTERRUPTED
         failed |= not sol.success
     print("(drift and rises over the states saved every", save_every, "steps)", file=out)
-    return 1 if failed else 0
+    return FAILED if failed else OK
 
 
-def run(scene_name, out_dir=None, quiet=False, out=None):
+def run(scene_name, out_dir=None, quiet=False, out=None, checkpoint_every=None, resume=False):
     """``geomint run``: run a scene, write ``<name>.npz``, ``<name>.summary.json`` and figures."""
     out = sys.stdout if out is None else out
     from tqdm import tqdm
@@ -97,24 +127,52 @@ def run(scene_name, out_dir=None, quiet=False, out=None):
 
     scene = load(scene_name).resolved()
     out_dir = Path(out_dir) if out_dir is not None else Path("runs") / scene.name
+    data = out_dir / f"{scene.name}.npz"
+    summary_path = out_dir / f"{scene.name}.summary.json"
+    _check_output(out_dir, [data, summary_path, *(out_dir / f"{scene.name}.{f}.png" for f in scene.figures)])
+    folder = out_dir / f"{scene.name}.checkpoint"
+    checkpoint = (folder, checkpoint_every) if checkpoint_every is not None or resume else None
     total = scene.steps_per_trajectory * scene.n_trajectories
     with tqdm(total=total, unit="step", unit_scale=True, disable=quiet, delay=1.0, file=sys.stderr,
               desc=scene.name) as bar:
-        result = run_scene(scene, progress=bar.update)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    data = out_dir / f"{scene.name}.npz"
-    np.savez_compressed(data, **result.records, x0=np.array([sol.x[0] for sol in result.solutions]),
-                        status=np.array([sol.status for sol in result.solutions]))
+        try:
+            result = run_scene(scene, progress=bar.update, checkpoint=checkpoint, resume=resume)
+        except CheckpointError as exc:
+            raise OutputError(f"--resume: {exc}") from None
+    with atomic(data) as temporary:
+        np.savez_compressed(temporary, **result.records, x0=np.array([sol.x[0] for sol in result.solutions]),
+                            status=np.array([sol.status for sol in result.solutions]))
     summary = result.summary()
-    summary_path = out_dir / f"{scene.name}.summary.json"
-    summary_path.write_text(json.dumps(summary, indent=2) + "\n")
+    with atomic(summary_path) as temporary:
+        temporary.write_text(json.dumps(summary, indent=2) + "\n")
     figures = plotting.draw(result, out_dir)
     if not quiet:
         _report(summary, [data, summary_path, *figures], out)
+    if result.partial:
+        resumable = f"; resume with --resume" if checkpoint else ""
+        print(f"geomint: interrupted: {len(result.solutions)} of {scene.n_trajectories} trajectories written "
+              f"(the last one cut short), marked \"partial\" in {summary_path}{resumable}", file=sys.stderr)
+        return INTERRUPTED
+    if checkpoint:
+        shutil.rmtree(folder, ignore_errors=True)
     for sol in result.solutions:
         if not sol.success:
             print(f"geomint: run failed: x0 = {sol.x[0].tolist()}: {sol.message}", file=sys.stderr)
     return OK if result.success else FAILED
+
+
+def _check_output(folder, paths):
+    """The output folder exists or can be made, takes new files, and no result name is taken by a folder."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=folder).close()
+    except OSError as exc:
+        raise OutputError(f"--out {folder}: cannot write there ({exc.strerror or exc}); choose a writable folder "
+                          "with --out DIR.") from None
+    for path in paths:
+        if path.exists() and not path.is_file():
+            raise OutputError(f"--out {folder}: {path} exists and is not a file; remove it or choose another "
+                              "--out DIR.")
 
 
 def _report(summary, paths, out):
@@ -202,25 +260,38 @@ def main(argv=None):
     if args.command is None:
         parser.print_help()
         return OK
-    if args.command in ("run", "show"):
-        try:
-            if args.command == "run":
-                return run(args.scene, args.out, args.quiet)
-            return show(args.scene)
-        except (SceneError, OSError) as exc:
-            if args.traceback:
-                raise
-            problem = exc if isinstance(exc, SceneError) else f"cannot write the results ({exc}); choose --out DIR"
-            print(f"geomint: error: {problem}", file=sys.stderr)
-            return BAD_INPUT
-    if args.command == "list":
-        return list_all()
-    if args.command == "drift":
-        if args.eps < 0:
-            print("geomint: error: --eps must be >= 0", file=sys.stderr)
-            return BAD_INPUT
-        return drift(args.steps, args.h, args.eps)
-    return BAD_INPUT
+    if args.command == "drift" and not math.isfinite(args.steps * args.h):
+        parser.error(f"argument --steps/--h: the span steps * h = {args.steps} * {args.h} is not finite")
+    try:
+        return _COMMANDS[args.command](args)
+    except KeyboardInterrupt:
+        if args.traceback:
+            raise
+        print("geomint: interrupted; nothing was written", file=sys.stderr)
+        return INTERRUPTED
+    except Exception as exc:  # noqa: BLE001 - the command line reports every error in one line
+        if args.traceback:
+            raise
+        print(f"geomint: error: {_one_line(exc)}", file=sys.stderr)
+        return BAD_INPUT if isinstance(exc, (SceneError, OutputError, ValueError, TypeError, OSError)) else INTERNAL
+
+
+def _one_line(exc):
+    """An exception as one line; an unexpected one says how to see more."""
+    if isinstance(exc, (SceneError, OutputError, ValueError, TypeError)):
+        return " ".join(str(exc).split())
+    if isinstance(exc, OSError):
+        return f"{exc.filename or ''}: {exc.strerror or exc}".lstrip(": ")
+    return f"internal error {type(exc).__name__}: {' '.join(str(exc).split())[:300]} (rerun with --traceback and " \
+           "report it)"
+
+
+_COMMANDS = {
+    "run": lambda args: run(args.scene, args.out, args.quiet, checkpoint_every=args.checkpoint_every, resume=args.resume),
+    "show": lambda args: show(args.scene),
+    "list": lambda args: list_all(),
+    "drift": lambda args: drift(args.steps, args.h, args.eps),
+}
 
 
 if __name__ == "__main__":

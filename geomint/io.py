@@ -19,7 +19,10 @@ allow_pickle=False)`` reads it):
 (True, True)
 """
 
+import contextlib
 import json
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -64,8 +67,30 @@ def save(solution, path, system=None):
     path = Path(path)
     path = path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
     text = json.dumps(metadata(solution, system))
-    np.savez_compressed(path, **{key: getattr(solution, key) for key in _ARRAYS}, metadata=np.array(text))
+    with atomic(path) as temporary:
+        np.savez_compressed(temporary, **{key: getattr(solution, key) for key in _ARRAYS}, metadata=np.array(text))
     return path
+
+
+_UMASK = os.umask(0o022)
+os.umask(_UMASK)
+
+
+@contextlib.contextmanager
+def atomic(path):
+    """A temporary path beside ``path`` (same suffix), renamed onto ``path`` when the block ends normally and
+    removed when it raises: a failed or interrupted write never leaves a partial file under the final name."""
+    path = Path(path)
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=f".part{path.suffix}")
+    os.close(handle)
+    os.chmod(temporary, 0o666 & ~_UMASK)  # the mode a plain open() would give, not mkstemp's 0600
+    try:
+        yield Path(temporary)
+        os.replace(temporary, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(temporary)
+        raise
 
 
 def read_metadata(path):

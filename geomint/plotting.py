@@ -29,6 +29,7 @@ import numpy as np
 
 from . import diagnostics as _diagnostics
 from . import level_set as _level_set
+from .io import atomic
 
 _EQUILIBRIUM_STYLE = {
     "stable": dict(marker="o", s=46, facecolor="black", edgecolor="black"),
@@ -417,8 +418,11 @@ def draw(result, directory):
     for figure in result.scene.figures:
         fig = _FIGURES[figure](plt, result)
         path = directory / f"{result.scene.name}.{figure}.png"
-        fig.savefig(path, dpi=130)
-        plt.close(fig)
+        try:
+            with atomic(path) as temporary:
+                fig.savefig(temporary, dpi=130, format="png")
+        finally:
+            plt.close(fig)
         paths.append(path)
     return paths
 

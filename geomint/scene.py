@@ -58,8 +58,10 @@ neither computed nor stored, and ``every = "final"`` runs in constant memory.
 
 import dataclasses
 import inspect
+import json
 import math
 import re
+import shutil
 import time
 import tomllib
 from dataclasses import dataclass, field
@@ -67,11 +69,14 @@ from pathlib import Path
 
 import numpy as np
 
+from . import _validate
+from . import io as _io
 from . import level_set as _level_set
 from . import diagnostics as _diagnostics
 from . import expressions as _expressions
 from .method_data import MethodDataError, method_from_data, method_to_data
-from .solve import solve, step_count
+from ._kernels.layout import INTERRUPTED
+from .solve import MAX_STEPS, solve, step_count
 from .system import MetriplecticSystem
 from .systems import CATALOGUE
 
@@ -118,6 +123,8 @@ _KEY_OF = {name: (f"{section}.{key}" if section else key) for section, keys in _
            for key, name in keys.items()}
 _KEY_OF["expressions"] = "system"
 _LEVEL_SET_KEYS = ("H0", "n", "center")
+#: the most initial states a level set may ask for
+MAX_TRAJECTORIES = 10**6
 _EXPRESSION_KEYS = ("H", "S", "J", "P")
 _LABEL = re.compile(r"[A-Za-z][A-Za-z0-9_.-]{0,99}")
 
@@ -230,6 +237,7 @@ class Scene:
         set_("sections", check.planes("sections", self.sections))
         for label in ("title", "description"):
             set_(label, check.string(label, getattr(self, label)))
+        check.mathtext("title", self.title)
         set_("name", check.label("name", self.name))
 
     # -- construction ----------------------------------------------------------------------
@@ -241,10 +249,16 @@ class Scene:
             text = path.read_text(encoding="utf-8")
         except OSError as exc:
             raise SceneError(str(path), None, f"cannot read the scene file ({exc.strerror}).") from None
+        except UnicodeDecodeError as exc:
+            raise SceneError(str(path), None, f"not UTF-8 text (byte {exc.object[exc.start]:#04x} at position "
+                                              f"{exc.start}); save the file as UTF-8.") from None
         try:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise SceneError(str(path), None, f"not valid TOML: {exc}.") from None
+        except RecursionError:
+            raise SceneError(str(path), None, "tables or arrays nested too deeply to read; a scene needs two "
+                                              "levels.") from None
         return cls.from_dict(data, source=str(path), name=path.stem)
 
     @classmethod
@@ -353,7 +367,24 @@ class Scene:
             method.lower(system)
         except (TypeError, ValueError) as exc:
             raise SceneError(self.source, _KEY_OF["integrator"], str(exc)) from None
-        return self.replace(parameters=parameters, integrator=integrator, level_set=level_set)
+        resolved = self.replace(parameters=parameters, integrator=integrator, level_set=level_set)
+        resolved._check_size()
+        return resolved
+
+    def _check_size(self):
+        """Step counts and the size of the output, computed before anything runs."""
+        steps = self.duration / self.h
+        if not steps <= MAX_STEPS:
+            raise SceneError(self.source, _KEY_OF["h"], f"duration / h = {steps:.3g} steps per trajectory; at most "
+                                                        "2**52 are allowed: use a larger h or a shorter duration.")
+        rows = 2 if self.every == "final" else self.steps_per_trajectory // self.every + 2
+        # per saved row: t, x, H, S in the solution, and each recorded observable (at most 3 values) stacked
+        nbytes = rows * self.n_trajectories * 8 * (6 + 3 * len(self.record))
+        problem = _validate.memory_problem(nbytes)
+        if problem:
+            raise SceneError(self.source, _KEY_OF["every"], f"saving {rows} states of {self.n_trajectories} "
+                                                            f"trajectories {problem}; save less often (a larger "
+                                                            "`every`, or \"final\").")
 
     @property
     def steps_per_trajectory(self):
@@ -403,6 +434,9 @@ class SceneResult:
         trajectory that failed early is padded with NaN after its last row).
     wall : list of float
         Seconds per trajectory.
+    partial : bool
+        True when Ctrl-C stopped the run: the trajectories run so far (the
+        last one possibly cut short, ``status`` 2) are the result.
     """
 
     scene: Scene
@@ -411,10 +445,12 @@ class SceneResult:
     solutions: list
     records: dict
     wall: list
+    partial: bool = False
 
     @property
     def success(self):
         return all(sol.success for sol in self.solutions)
+
 
     def summary(self):
         """A JSON-ready dict: invariant errors, S rises, work, wall time, versions, the scene."""
@@ -429,8 +465,9 @@ class SceneResult:
                 "n_steps": sol.n_steps, "n_newton": sol.n_newton, "nfev": sol.nfev, "wall_s": wall,
             })
         totals = {
+            "partial": self.partial,
             "trajectories": len(trajectories),
-            "failed": sum(not t["success"] for t in trajectories),
+            "failed": sum(t["status"] < 0 for t in trajectories),
             "max_energy_error": max(t["energy_error"] for t in trajectories),
             "S_rises": sum(t["S_rises"] for t in trajectories),
             **{k: sum(t[k] for t in trajectories) for k in ("n_steps", "n_newton", "nfev", "wall_s")},
@@ -444,19 +481,32 @@ class SceneResult:
         }
 
 
-def run_scene(scene, progress=None):
+def run_scene(scene, progress=None, checkpoint=None, resume=False):
     """Run a scene; ``progress(n)`` is called with the number of steps done since its last call.
 
     Validates the scene fully (``Scene.resolved``), integrates each initial
     state with ``geomint.solve``, and computes only the recorded observables.
+
+    ``checkpoint = (folder, steps)`` keeps the run resumable: each finished
+    trajectory is saved in ``folder`` and the running one checkpointed every
+    ``steps`` steps (``geomint.solve``'s ``checkpoint``); ``resume=True``
+    continues from that folder (``steps`` may then be None: the checkpoint's),
+    and the result equals the uninterrupted run's bit for bit.  A folder
+    written for another scene raises ``CheckpointError``.
     """
     scene = scene.resolved()
     system = scene.build_system()
     method = scene.build_method()
     states = scene.initial_states(system)
     save_every = None if scene.every == "final" else scene.every
-    solutions, wall = [], []
-    for x0 in states:
+    checkpoint = _checkpoint_folder(scene, checkpoint, resume)
+    folder = None if checkpoint is None else checkpoint[0]
+    solutions, wall, partial = [], [], False
+    for i, x0 in enumerate(states):
+        if folder is not None and (folder / f"{i}.npz").exists():  # finished before the interruption
+            solutions.append(_io.load(folder / f"{i}.npz"))
+            wall.append(0.0)
+            continue
         done = [0]
 
         def report(steps, done=done):
@@ -464,12 +514,59 @@ def run_scene(scene, progress=None):
             done[0] = steps
 
         start = time.perf_counter()
-        sol = solve(system, x0, (0.0, scene.duration), scene.h, method=method, save_every=save_every,
-                    progress=None if progress is None else report)
+        running = None if folder is None else folder / "running.npz"
+        try:
+            sol = solve(system, x0, (0.0, scene.duration), scene.h, method=method, save_every=save_every,
+                        progress=None if progress is None else report,
+                        checkpoint=None if folder is None else (running, checkpoint[1]),
+                        resume=running if running is not None and running.exists() else None)
+        except KeyboardInterrupt:  # Ctrl-C outside the compiled loop (which answers it with status 2)
+            partial = True
+            break
         wall.append(time.perf_counter() - start)
         solutions.append(sol)
+        if folder is not None and sol.status != INTERRUPTED:
+            _io.save(sol, folder / f"{i}.npz")
+            running.unlink(missing_ok=True)
+        if sol.status == INTERRUPTED:
+            partial = True
+            break
+    if not solutions:  # interrupted before a first trajectory ran: nothing to return
+        raise KeyboardInterrupt
     records = _records(scene.record, system, solutions)
-    return SceneResult(scene=scene, system=system, method=method, solutions=solutions, records=records, wall=wall)
+    return SceneResult(scene=scene, system=system, method=method, solutions=solutions, records=records, wall=wall,
+                       partial=partial)
+
+
+class CheckpointError(ValueError):
+    """A checkpoint folder that cannot be resumed (missing, or written for another scene)."""
+
+
+def _checkpoint_folder(scene, checkpoint, resume):
+    """``(folder, steps)`` for a checkpointed run: a new folder stamped with the scene and ``steps``
+    (``checkpoint.json``), or on ``resume`` the stamped folder checked against the scene (its ``steps``
+    used when none is given)."""
+    if checkpoint is None:
+        if resume:
+            raise CheckpointError("`resume` needs `checkpoint` = (folder, steps or None).")
+        return None
+    folder, steps = Path(checkpoint[0]), checkpoint[1]
+    stamp = folder / "checkpoint.json"
+    if resume:
+        if not stamp.is_file():
+            raise CheckpointError(f"no checkpoint in {folder}; run with a checkpoint first.")
+        written = json.loads(stamp.read_text())
+        if written.get("scene") != json.loads(json.dumps(scene.to_dict())):
+            raise CheckpointError(f"the checkpoint in {folder} was written for another scene; remove it or run "
+                                  "without resuming.")
+        return folder, written["every"] if steps is None else steps
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
+        raise ValueError(f"`checkpoint` steps must be an integer >= 1; got {steps!r}.")
+    if folder.exists():
+        shutil.rmtree(folder)
+    folder.mkdir(parents=True)
+    stamp.write_text(json.dumps({"scene": scene.to_dict(), "every": int(steps)}))
+    return folder, int(steps)
 
 
 def _records(names, system, solutions):
@@ -513,6 +610,8 @@ def load(scene):
     path = Path(scene)
     if path.is_file():
         return Scene.from_toml(path)
+    if path.is_dir():
+        raise SceneError(scene, None, "is a folder; give a scene file (.toml) or the name of a bundled scene.")
     bundled = bundled_scenes()
     stem = scene[:-5] if scene.endswith(".toml") else scene
     if stem in bundled:
@@ -531,7 +630,10 @@ class _Checker:
     def real(self, name, value, minimum=None, positive=False):
         if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
             self.fail(name, f"must be a number; got {_describe(value)}.")
-        value = float(value)
+        try:
+            value = float(value)
+        except OverflowError:
+            self.fail(name, f"must be finite in float64; got an integer of {len(str(abs(value)))} digits.")
         if not math.isfinite(value):
             self.fail(name, f"must be finite; got {value!r}.")
         if positive and not value > 0.0:
@@ -576,6 +678,17 @@ class _Checker:
             self.fail(name, f"must be a string; got {_describe(value)}.")
         return value
 
+    def mathtext(self, name, value):
+        """Text drawn on figures: its ``$...$`` parts must parse as matplotlib mathtext."""
+        if value.replace(r"\$", "").count("$") >= 2:
+            from matplotlib.mathtext import MathTextParser
+
+            try:
+                MathTextParser("path").parse(value)
+            except ValueError as exc:
+                self.fail(name, f"its $...$ math does not parse ({str(exc).strip().splitlines()[-1]}); "
+                                "write \\$ for a dollar sign.")
+
     def choice(self, name, value, known, what):
         self.string(name, value)
         if value not in known:
@@ -606,8 +719,8 @@ class _Checker:
             if sub not in value:
                 self.fail(f"{key}.{sub}", "missing; it is required.")
         n = value["n"]
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-            self.fail(f"{key}.n", f"must be an integer >= 1; got {_describe(n)}.")
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= MAX_TRAJECTORIES:
+            self.fail(f"{key}.n", f"must be an integer in [1, {MAX_TRAJECTORIES}]; got {_describe(n)}.")
         center = value.get("center")
         return {"H0": self.real(f"{key}.H0", value["H0"]), "n": int(n),
                 "center": None if center is None else list(self.vector(f"{key}.center", center))}

@@ -21,10 +21,13 @@ class Solution:
     H, S : (n,) arrays
         Energy and Casimir at ``t``.
     success : bool
-        True when the run reached ``t_end``.
+        True when the run reached ``t_end`` (``status == 0``).
     status : int
-        0: reached ``t_end``; -1: a Newton solve did not converge; -2: a step
-        produced a non-finite state.
+        0: reached ``t_end``; 2: interrupted by Ctrl-C (SIGINT), the states
+        up to the interrupt kept; -1: a Newton solve did not converge; -2: a
+        step produced a non-finite state; -3: a projection found no point of
+        H = H0 that does not raise S; -4: a user function raised an exception
+        during a step (named in ``message``).
     message : str
         What happened, naming the failed step and time if any.
     failed_step : int or None

@@ -18,6 +18,7 @@ import numpy as np
 from numba.core.dispatcher import Dispatcher
 from numba.core.types.function_type import CompileResultWAP
 
+from . import _user_errors, _validate
 from ._kernels import field as _field
 from ._kernels.layout import Model
 
@@ -119,7 +120,7 @@ class MetriplecticSystem:
             raise ValueError("give exactly one of `J` (axial vector) and `P` (skew matrix) for the Poisson tensor.")
         self.eps = _check_eps(eps)
         self.hamiltonian = True
-        self._params = _check_params(params)
+        self._params = _validate.reals("params", params)
         self.name = str(name)
         scalar = {key: _scalar_function(key, fn) for key, fn in (("H", H), ("S", S))}
         forms = {key: _vector_function(key, fn) for key, fn in (("grad_H", grad_H), ("grad_S", grad_S))}
@@ -138,9 +139,10 @@ class MetriplecticSystem:
         _check_shapes(self.functions, self._params)
         self.exact_flows = _check_exact_flows(exact_flows)
         if check:
-            _check_structure(self)
-            for flow, data in self.exact_flows.items():
-                _EXACT_FLOW_CHECKS[flow](self, data)
+            with np.errstate(all="ignore"):  # finite differences of huge values overflow: the checks see inf/nan
+                _check_structure(self)
+                for flow, data in self.exact_flows.items():
+                    _EXACT_FLOW_CHECKS[flow](self, data)
 
     # -- the model as kernels receive it ------------------------------------------------
     @property
@@ -161,14 +163,15 @@ class MetriplecticSystem:
                                 self._origin())
         return self._model
 
-    def _origin(self):
-        f, p, zero = self.functions, self._params, np.zeros(3)
+    def _origin(self, params=None):
+        """H, grad H, S, grad S at 0 (0 where not finite or raising), with ``params`` (default: the system's)."""
+        f, p, zero = self.functions, self._params if params is None else params, np.zeros(3)
         values = []
         for value, gradient in ((f.H, f.grad_H), (f.S, f.grad_S)):
             try:
                 with np.errstate(all="ignore"):
                     values += [float(value(zero, p)), *_vector(gradient(zero, p))]
-            except (ArithmeticError, ValueError):  # singular at 0 (log |x|, 1/|x| ...): no such terms to measure
+            except Exception:  # noqa: BLE001 - singular at 0 (log |x|, 1/|x| ...): no such terms to measure
                 values += [0.0] * 4
         origin = np.array(values, dtype=np.float64)
         origin[~np.isfinite(origin)] = 0.0
@@ -196,6 +199,13 @@ class MetriplecticSystem:
             other.eps = _check_eps(eps)
         return other
 
+    def __getstate__(self):
+        """Pickled without the compiled model (function addresses of this process), rebuilt on first use: a
+        system can be shipped to other processes (Dask workers)."""
+        state = dict(self.__dict__)
+        state.pop("_model", None)
+        return state
+
     def __repr__(self):
         effects = "" if self.hamiltonian else ", hamiltonian=False"
         return f"MetriplecticSystem(name={self.name!r}, eps={self.eps!r}{effects}, params={self.params.tolist()!r})"
@@ -211,14 +221,37 @@ class MetriplecticSystem:
             raise ValueError(f"`x` must have shape (3,) or (n, 3); got shape {np.shape(x)}.")
         n = X.shape[0]
         out = (np.empty(n), np.empty(n), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)))
-        _field.evaluate(self.model, X, *out)
+        with _user_errors.catching() as raised:
+            _field.evaluate(self.model, X, *out)
+        if raised:  # find the state and the function: the direct calls raise where the kernel's could not
+            for row in X:
+                self._evaluate_one(row)
+            raise raised[0]
         return out
 
     def _evaluate_one(self, x):
         """One state: the user's functions called directly (a few microseconds, no kernel dispatch)."""
         f, p = self.functions, self._params
-        return (float(f.H(x, p)), float(f.S(x, p)), _vector(f.grad_H(x, p)), _vector(f.grad_S(x, p)),
-                _vector(f.poisson(x, p)))
+        try:
+            return (float(f.H(x, p)), float(f.S(x, p)), _vector(f.grad_H(x, p)), _vector(f.grad_S(x, p)),
+                    _vector(f.poisson(x, p)))
+        except Exception:
+            found = self.raising_function(x)
+            if found is None:
+                raise
+            raise _user_errors.UserFunctionError(found[0], x.tolist(), found[1]) from found[1]
+
+    def raising_function(self, x):
+        """``(name, exception)`` of the first user function that raises at ``x``, or None if none does."""
+        f, p = self.functions, self._params
+        x = np.array(x, dtype=np.float64)
+        names = ("H", "S", "grad_H", "grad_S", "P" if f.poisson_form == "matrix" else "J")
+        for name, fn in zip(names, (f.H, f.S, f.grad_H, f.grad_S, f.poisson)):
+            try:
+                fn(x.copy(), p)
+            except Exception as error:  # noqa: BLE001 - any exception of the user's is the answer
+                return name, error
+        return None
 
     def H(self, x):
         """Energy at ``x``."""
@@ -325,6 +358,8 @@ def _first_class(fn):
     """A jitted user function as a first-class function object for the kernels."""
     if numba.config.DISABLE_JIT:
         return fn
+    if _SIGNATURE not in fn.overloads:  # a system unpickled in another process (a Dask worker)
+        fn.compile(_SIGNATURE)
     return CompileResultWAP(fn.overloads[_SIGNATURE])
 
 
@@ -370,27 +405,10 @@ def _check_shapes(functions, params):
 
 
 def _check_eps(eps):
-    if isinstance(eps, (bool, np.bool_, str)):
-        raise TypeError(f"`eps` must be a real number; got {eps!r} ({type(eps).__name__}).")
-    try:
-        value = float(eps)
-    except (TypeError, ValueError):
-        raise TypeError(f"`eps` must be a real number; got {eps!r}.") from None
+    value = _validate.real("eps", eps)
     if not np.isfinite(value) or value < 0.0:
         raise ValueError(f"`eps` must be finite and >= 0; got {eps!r}.")
     return value
-
-
-def _check_params(params):
-    try:
-        array = np.array(params, dtype=np.float64).reshape(-1) if np.ndim(params) <= 1 else None
-    except (TypeError, ValueError):
-        raise TypeError(f"`params` must be a sequence of real numbers; got {params!r}.") from None
-    if array is None:
-        raise ValueError(f"`params` must be 1-dimensional; got shape {np.shape(params)}.")
-    if not np.all(np.isfinite(array)):
-        raise ValueError(f"`params` must be finite; got {array.tolist()!r}.")
-    return array
 
 
 # -- structural checks at sample points ----------------------------------------------
@@ -398,7 +416,17 @@ _SAMPLES = np.random.default_rng(20261121).uniform(-1.0, 1.0, size=(6, 3))
 
 
 def _check_structure(system):
-    """Gradients vs finite differences, Casimir ``grad S x J = 0``, Jacobi, skew P."""
+    """Gradients vs finite differences, Casimir ``grad S x J = 0``, Jacobi, skew P, at sample points."""
+    try:
+        _check_samples(system)
+    except _user_errors.UserFunctionError as error:
+        raise _user_errors.UserFunctionError(
+            error.function, error.x, error.__cause__,
+            "The structure checks evaluate the functions at sample points in [-1, 1]^3 and 1e-6 around them: "
+            "return NaN where a function is undefined there, or pass check=False.") from error.__cause__
+
+
+def _check_samples(system):
     H, S, grad_H, grad_S, J = system._evaluate(_SAMPLES)
     finite = np.isfinite(H) & np.isfinite(S) & np.all(np.isfinite(np.hstack([grad_H, grad_S, J])), axis=1)
     points = _SAMPLES[finite]
@@ -462,7 +490,7 @@ def _check_exact_flows(exact_flows):
     for name, data in exact_flows.items():
         if name not in _EXACT_FLOW_DATA:
             raise ValueError(f"`exact_flows` names must be among {sorted(_EXACT_FLOW_DATA)}; got {name!r}.")
-        values = _check_params(data)
+        values = _validate.reals(f"exact_flows[{name!r}]", data)
         if values.size != _EXACT_FLOW_DATA[name]:
             raise ValueError(f"`exact_flows[{name!r}]` must hold {_EXACT_FLOW_DATA[name]} numbers; got {data!r}.")
         checked[name] = tuple(float(v) for v in values)

@@ -220,4 +220,5 @@ def test_an_output_folder_that_cannot_be_written_is_one_line(tmp_path, capsys):
     blocked.write_text("not a folder")
     assert main(["run", str(_scene(tmp_path)), "--out", str(blocked / "out"), "--quiet"]) == BAD_INPUT
     err = capsys.readouterr().err
-    assert err.startswith("geomint: error: cannot write the results (") and err.count("\n") == 1
+    assert err.startswith("geomint: error: --out ") and "cannot write there (Not a directory)" in err
+    assert err.count("\n") == 1

@@ -137,7 +137,7 @@ def test_progress_reports_every_step_once():
     scene = Scene(**{**RIGID, "duration": 250_000 * 1e-4, "h": 1e-4}, integrator="rk4", every="final")
     run_scene(scene, progress=calls.append)
     assert sum(calls) == scene.steps_per_trajectory * scene.n_trajectories
-    assert len(calls) == 2 * 3  # chunks of 100 000 steps: 3 per trajectory
+    assert len(calls) >= 2 * 2 and all(c > 0 for c in calls)  # chunks of ~0.1 s: several per trajectory
 
 
 def test_scene_round_trips_through_its_dict_and_resolution():

@@ -61,7 +61,7 @@ STATIC = [
      r"`initial`: give exactly one of `points` and `level_set`"),
     (edit("points = [[0.6, 0.0, 0.8]]", "level_set = { H0 = 1.0 }"), r"`initial.level_set.n`: missing"),
     (edit("points = [[0.6, 0.0, 0.8]]", "level_set = { H0 = 1.0, n = 0 }"),
-     r"`initial.level_set.n`: must be an integer >= 1; got 0"),
+     r"`initial.level_set.n`: must be an integer in \[1, 1000000\]; got 0"),
     (edit("points = [[0.6, 0.0, 0.8]]", "level_set = { H0 = 1.0, n = 2, radius = 1 }"),
      r"`initial.level_set.radius`: unknown key; `level_set` takes H0, center, n"),
     (edit("every = 1", "every = 0"), r"`output.every`: must be an integer >= 1 or \"final\"; got 0"),

@@ -9,6 +9,7 @@ import geomint
 import geomint.testing as gt
 
 EPS = np.finfo(float).eps
+SUBNORMAL = np.finfo(float).smallest_subnormal
 
 
 def _scale(*vectors):
@@ -44,7 +45,8 @@ def test_g_has_rank_two_where_grad_H_is_nonzero(system, x):
 def test_hamiltonian_and_gradient_fields_are_orthogonal(system, x):
     xi_P, xi_g = system.xi_P(x), system.xi_g(x)
     gh, gs, J = system.grad_H(x), system.grad_S(x), system.J(x)
-    assert abs(np.dot(xi_P, xi_g)) <= 32 * EPS * _scale(gh, J) * _scale(gh, gh, gs)
+    # the products round in the subnormal range too, where the error is absolute (a few of its steps)
+    assert abs(np.dot(xi_P, xi_g)) <= 32 * EPS * _scale(gh, J) * _scale(gh, gh, gs) + 8 * SUBNORMAL
 
 
 @given(system=gt.catalogue_systems(), x=gt.states())

@@ -39,6 +39,7 @@ Caller: ``driver.step`` (and ``rise_statistics``).
 import numpy as np
 from numba import njit
 
+from .._cache import CACHE
 from .discrete_gradient import origin_terms, term_scale
 from .exact_flows import rigid_body_flow, rotation, rotor_splitting
 from .layout import (
@@ -254,7 +255,7 @@ def composed_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, 
     return StepResult(y, comp_y, H_y, S_y, status, iterations, evaluations, residual, UNKNOWN), rises, fired
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def rise_statistics(model, eps, hamiltonian, method, state, h, n_steps, rise_ulps, out):
     """Run ``n_steps`` full steps from ``state`` (updated) and count S rises beyond ``rise_ulps`` ulp.
 

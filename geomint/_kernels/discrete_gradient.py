@@ -45,6 +45,7 @@ import numpy as np
 from numba import njit, types
 from numba.extending import overload
 
+from .._cache import CACHE
 from .field import dissipative
 from .layout import AVF, ITOH_ABE, SYMMETRIZED_ITOH_ABE, AVFKind, GonzalezKind, ItohAbeKind, SymmetrizedItohAbeKind
 from .vec3 import ZERO, abs_dot, as_vector, axpy, cross, dot, is_finite, load, norm_inf, scale, sub
@@ -369,7 +370,7 @@ def discrete_field(kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, 
     return F, H_new, S_new, dg_h, dg_s, axial_bar, noise
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def evaluate(model, kind, coeffs, x_old, x_new, out):
     """Rows of ``out`` (3, 3): dgH, dgS and Jbar at the pair ``(x_old, x_new)``.
 

@@ -12,11 +12,12 @@ import numpy as np
 from numba import njit
 from numba.extending import overload
 
+from .._cache import CACHE
 from .composition import composed_step
 from .field import non_finite_culprit
 from .layout import (
-    CULPRIT, FAILED_STEP, FIELD_EVALUATIONS, NEWTON_ITERATIONS, NON_FINITE, OK, ROWS, STATE_ANCHOR, STATE_COMP, STATE_S,
-    STATE_X, STATUS, STEPS, ComposedStep, DiscreteGradientStep, RungeKutta4,
+    CULPRIT, FAILED_STEP, FIELD_EVALUATIONS, NEWTON_ITERATIONS, NON_FINITE, OK, RAISED, ROWS, STATE_ANCHOR, STATE_COMP,
+    STATE_S, STATE_X, STATUS, STEPS, USER_RAISED, ComposedStep, DiscreteGradientStep, RungeKutta4,
 )
 from .steps import discrete_gradient_step, rk4_step
 from .vec3 import flush_tiny, is_finite, load, same
@@ -70,7 +71,7 @@ def _save(out, t, x, H_x, S_x):
     out.counters[ROWS] = row + 1
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def integrate(model, eps, hamiltonian, method, state, work, k_begin, k_end, grid, out):
     """Take steps ``k_begin .. k_end - 1`` of ``grid.n_steps`` from ``state`` (updated in place).
 
@@ -83,7 +84,9 @@ def integrate(model, eps, hamiltonian, method, state, work, k_begin, k_end, grid
     A failed step stops the loop with the last good state saved and
     ``STATUS``, ``FAILED_STEP`` and ``CULPRIT`` (the user function that gave a
     non-finite value, when known) set in ``out.counters``; ``out.residual[0]``
-    holds the last Newton correction.  H and S are evaluated only for the
+    holds the last Newton correction.  ``out.counters[RAISED]`` counts the
+    exceptions user functions raised (``geomint._user_errors`` counts them while
+    the loop runs): a step during which it became non-zero fails.  H and S are evaluated only for the
     states saved (and by the steps that need them).
 
     Components below ``FLUSH * |x|_inf`` are set to zero after each step
@@ -114,6 +117,8 @@ def integrate(model, eps, hamiltonian, method, state, work, k_begin, k_end, grid
         evaluations += r.evaluations
         residual = r.residual
         status, culprit = r.status, r.culprit
+        if out.counters[RAISED] != 0:  # a user function raised inside the step: its values were garbage
+            status = USER_RAISED
         x_new, comp_new = flush_tiny(r.x, r.comp)
         H_new, S_new = r.H, r.S
         countdown -= 1

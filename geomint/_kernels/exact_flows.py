@@ -19,12 +19,13 @@ import math
 import numpy as np
 from numba import njit
 
+from .._cache import CACHE
 from .vec3 import as_vector, load
 
 EPS = np.finfo(np.float64).eps
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def jacobi_sn_cn_dn(u, m):
     """``(sn, cn, dn)(u | m)`` for ``0 <= m <= 1`` (parameter ``m = k^2``).
 
@@ -53,7 +54,7 @@ def jacobi_sn_cn_dn(u, m):
     return math.sin(phi), cn, math.sqrt((1.0 - m) + m * cn * cn)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def _agm_level(m, n):
     """``(a_n, c_n)`` of the AGM started at ``(1, sqrt(1 - m))``; recomputed, not stored,
     so that the descending pass allocates nothing (``n`` is at most about 6)."""
@@ -63,7 +64,7 @@ def _agm_level(m, n):
     return a, c
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def carlson_rf(x, y, z):
     """Carlson's symmetric integral ``R_F(x, y, z)`` (x, y, z >= 0, at most one zero), by duplication."""
     for _ in range(100):
@@ -79,7 +80,7 @@ def carlson_rf(x, y, z):
     return np.nan
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def elliptic_f(phi, m):
     """``F(phi | m) = int_0^phi (1 - m sin^2 t)^(-1/2) dt`` for every real ``phi``, ``0 <= m < 1``.
 
@@ -96,7 +97,7 @@ def elliptic_f(phi, m):
     return value
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def _sorted_axes(a, b, c):
     """Indices of the smallest, middle and largest of ``(a, b, c)``."""
     lo, mid, hi = 0, 1, 2
@@ -110,18 +111,18 @@ def _sorted_axes(a, b, c):
     return lo, mid, hi
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def _cyclic_coefficient(coef, i):
     """``a_j - a_k`` for ``(i, j, k)`` cyclic: ``(grad H x m)_i = (a_j - a_k) m_j m_k``."""
     return coef[(i + 1) % 3] - coef[(i + 2) % 3]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def _set(m, i, value):
     return (value if i == 0 else m[0], value if i == 1 else m[1], value if i == 2 else m[2])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def rigid_body_flow(a, b, c, m, t):
     """The exact flow ``m(t)`` of ``m' = grad H x m``, ``H = (a m_1^2 + b m_2^2 + c m_3^2) / 2``.
 
@@ -187,7 +188,7 @@ def rigid_body_flow(a, b, c, m, t):
     return _set(out, d_axis, s_w * W * dn)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def rigid_body_flow_at(a, b, c, m, times, out):
     """Rows ``out[i] = rigid_body_flow(a, b, c, m, times[i])``.  Caller: ``geomint.reference``."""
     for i in range(times.shape[0]):

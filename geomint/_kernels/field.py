@@ -15,6 +15,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .._cache import CACHE
 from .layout import FN_GRAD_H, FN_GRAD_S, FN_H, FN_POISSON, FN_S, UNKNOWN
 from .vec3 import ZERO, as_vector, axpy, cross, is_finite, load, norm_inf, scale
 
@@ -61,7 +62,7 @@ def field(model, eps, hamiltonian, buf, x):
     return value
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=CACHE, error_model="numpy")
 def evaluate(model, X, out_H, out_S, out_grad_H, out_grad_S, out_J):
     """Fill H, S, grad H, grad S and J at every row of ``X`` (n, 3).
 

@@ -13,9 +13,11 @@ from collections import namedtuple
 
 # -- step status ------------------------------------------------------------------------------
 OK = 0
+INTERRUPTED = 2  # set by ``geomint.solve`` between chunks (1 is kept for terminal events, as in scipy)
 NEWTON_FAILED = -1
 NON_FINITE = -2
 PROJECTION_FAILED = -3
+USER_RAISED = -4  # a user function raised inside the step (``geomint._user_errors``)
 
 # -- which user function produced a non-finite value (counters[CULPRIT]) ------------------------
 UNKNOWN = 0
@@ -34,7 +36,8 @@ STATUS = 3
 FAILED_STEP = 4
 ROWS = 5
 CULPRIT = 6
-N_COUNTERS = 7
+RAISED = 7  # exceptions user functions raised, counted by ``geomint._user_errors``
+N_COUNTERS = 8
 
 # -- run state (float64 array carried from chunk to chunk) -------------------------------------
 #    x (3), its compensation (3), the energy anchor H(x0), S(x_n)

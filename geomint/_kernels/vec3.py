@@ -87,8 +87,12 @@ def solve(m, r):
 def as_vector(v):
     """A user function's vector result as a 3-tuple; a 3x3 matrix ``P`` gives its axial vector.
 
-    ``P v = v x J`` means ``J = (P[1,2], -P[0,2], P[0,1])``.
+    ``P v = v x J`` means ``J = (P[1,2], -P[0,2], P[0,1])``.  An array of another
+    shape gives NaNs (the step then fails as non-finite, naming the function)
+    instead of a read past its end.
     """
+    if np.shape(v) not in ((3,), (3, 3)):
+        return (np.nan, np.nan, np.nan)
     if np.ndim(v) == 2:  # pure-Python path (NUMBA_DISABLE_JIT=1)
         return (v[1][2], -v[0][2], v[0][1])
     return (v[0], v[1], v[2])
@@ -97,7 +101,10 @@ def as_vector(v):
 @overload(as_vector)
 def _as_vector(v):
     if isinstance(v, types.Array) and v.ndim == 2:
-        return lambda v: (v[1, 2], -v[0, 2], v[0, 1])
+        return lambda v: (v[1, 2], -v[0, 2], v[0, 1]) if v.shape[0] == 3 and v.shape[1] == 3 else (np.nan, np.nan,
+                                                                                                  np.nan)
+    if isinstance(v, types.Array):
+        return lambda v: (v[0], v[1], v[2]) if v.shape[0] == 3 else (np.nan, np.nan, np.nan)
     return lambda v: (v[0], v[1], v[2])
 
 

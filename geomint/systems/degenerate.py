@@ -1,32 +1,35 @@
 """A Poisson tensor that vanishes on a plane (paper section 2.3)."""
 
+import numbers
+
 from numba import njit
 
+from .._cache import CACHE
 from ..system import MetriplecticSystem
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _H(x, p):
     y = x[1] - p[0]
     return 0.5 * (x[0] * x[0] + y * y + x[2] * x[2])
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _grad_H(x, p):
     return (x[0], x[1] - p[0], x[2])
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _S(x, p):
     return 0.5 * x[2] * x[2]
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _grad_S(x, p):
     return (0.0, 0.0, x[2])
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _J(x, p):
     return (0.0, 0.0, x[1])
 
@@ -42,7 +45,7 @@ def degenerate_example(number=1, eps=1.0):
     Example 1 the great circle ``{y = 0} n {H = H0}`` is invariant and flows to
     ``(+-r0, 0, 0)``; in Example 2 it is invariant only at z = 0.
     """
-    if number not in _SHIFTS:
+    if isinstance(number, bool) or not isinstance(number, numbers.Integral) or number not in _SHIFTS:
         raise ValueError(f"`number` must be 1 or 2 (the paper's Examples 1 and 2); got {number!r}.")
     return MetriplecticSystem(
         H=_H, grad_H=_grad_H, S=_S, grad_S=_grad_S, J=_J, eps=eps, params=[_SHIFTS[number]],

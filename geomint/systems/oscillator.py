@@ -3,20 +3,22 @@
 import numpy as np
 from numba import njit
 
+from .._cache import CACHE
+from .._validate import reals
 from ..system import MetriplecticSystem
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _H(x, p):
     return 0.5 * (x[0] * x[0] + x[1] * x[1] + x[2] * x[2])
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _grad_H(x, p):
     return (x[0], x[1], x[2])
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _S(x, p):
     """``S(z) = sum_k p[k] z^k`` by Horner's rule."""
     z = x[2]
@@ -26,7 +28,7 @@ def _S(x, p):
     return value
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _grad_S(x, p):
     z = x[2]
     slope = 0.0
@@ -35,7 +37,7 @@ def _grad_S(x, p):
     return (0.0, 0.0, slope)
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _J(x, p):
     return (0.0, 0.0, 1.0)
 
@@ -52,8 +54,8 @@ def dissipative_oscillator(coefficients=(0.0, 0.0, 1.0), eps=1.0):
     ``coefficients = (0, 0, 0.5)`` gives S = z^2/2 and ``(0, 1)`` gives S = z
     (problem R5 of docs/references.md); ``(0,)`` gives S = 0, the unperturbed oscillator.
     """
-    coefficients = np.atleast_1d(np.asarray(coefficients, dtype=np.float64))
-    if coefficients.ndim != 1 or coefficients.size == 0:
+    coefficients = reals("coefficients", coefficients)
+    if coefficients.size == 0:
         raise ValueError(f"`coefficients` must be a non-empty 1-D sequence; got {coefficients.tolist()!r}.")
     return MetriplecticSystem(
         H=_H, grad_H=_grad_H, S=_S, grad_S=_grad_S, J=_J, eps=eps, params=coefficients,

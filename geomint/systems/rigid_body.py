@@ -2,36 +2,38 @@
 
 from numba import njit
 
+from .._cache import CACHE
+from .._validate import real
 from ..system import MetriplecticSystem
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _quadratic_H(m, p):
     return 0.5 * (p[0] * m[0] * m[0] + p[1] * m[1] * m[1] + p[2] * m[2] * m[2])
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _quadratic_grad_H(m, p):
     return (p[0] * m[0], p[1] * m[1], p[2] * m[2])
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _sphere_S(m, p):
     return 0.5 * (m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _sphere_grad_S(m, p):
     return (m[0], m[1], m[2])
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _identity_J(m, p):
     return (m[0], m[1], m[2])
 
 
 def _check_coefficient(name, value):
-    value = float(value)
+    value = real(name, value)
     if not value > 0.0 or value == float("inf"):
         raise ValueError(f"`{name}` must be a finite positive number; got {value!r}.")
     return value
@@ -56,25 +58,25 @@ def relaxing_rigid_body(a=0.5, b=1.0, c=1.5, eps=1.0):
     )
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _quartic_H(m, p):
     x, y, z = m[0], m[1], m[2]
     return 0.5 * (p[0] * x * x + p[1] * y * y + p[2] * z * z) + 0.25 * p[3] * (x**4 + y**4 + z**4)
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _quartic_grad_H(m, p):
     x, y, z = m[0], m[1], m[2]
     return (p[0] * x + p[3] * x**3, p[1] * y + p[3] * y**3, p[2] * z + p[3] * z**3)
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _quartic_S(m, p):
     r2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2]
     return 0.5 * r2 + 0.25 * r2 * r2
 
 
-@njit(cache=True)
+@njit(cache=CACHE)
 def _quartic_grad_S(m, p):
     f = 1.0 + m[0] * m[0] + m[1] * m[1] + m[2] * m[2]
     return (f * m[0], f * m[1], f * m[2])
@@ -92,7 +94,7 @@ def quartic_rigid_body(a=0.5, b=1.0, c=1.5, k=0.5, eps=1.0):
     missing Gonzalez correction show up as energy drift.  ``k >= 0``.
     """
     params = [_check_coefficient(n, v) for n, v in (("a", a), ("b", b), ("c", c))]
-    k = float(k)
+    k = real("k", k)
     if not 0.0 <= k < float("inf"):
         raise ValueError(f"`k` must be finite and >= 0; got {k!r}.")
     return MetriplecticSystem(

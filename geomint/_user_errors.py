@@ -1,0 +1,98 @@
+"""Exceptions that user functions raise inside compiled kernels.
+
+A jitted user function reached from a kernel through a first-class function
+type cannot pass an exception on to its caller: numba hands it to
+``sys.unraisablehook`` (the "Exception ignored in ..." lines) and the call
+returns garbage, so a run would go on with wrong values and end with
+``success = True``.  ``catching(counters)`` records such exceptions while
+kernels run: the first is kept and each one counted in ``counters[layout.RAISED]``, which
+the step loop reads after every step (``driver.integrate``) and turns into a
+failed step.  The hook is synchronous (the kernel holds the GIL when numba calls
+it), per thread, and passes every other unraisable exception on unchanged.
+"""
+
+import contextlib
+import sys
+import threading
+
+from ._kernels.layout import RAISED
+
+
+class UserFunctionError(ValueError):
+    """A user function (``H``, ``grad_H``, ``S``, ``grad_S``, ``J`` or ``P``) raised at a state.
+
+    ``function`` names it, ``x`` is the state, and the user's own exception is
+    ``__cause__``.
+    """
+
+    def __init__(self, function, x, error, advice=""):
+        self.function, self.x = function, list(x)
+        super().__init__(f"the user function `{function}` raised {error!r} at x = {self.x}. {advice}".rstrip())
+
+
+def raised_by(error, functions):
+    """The name (a key of ``functions``, a dict of jitted functions) of the function ``error`` was raised in, from
+    the frames numba writes into its traceback, or None."""
+    codes = {(fn.py_func.__code__.co_filename, fn.py_func.__name__): name
+             for name, fn in functions.items() if hasattr(fn, "py_func")}
+    tb, found = error.__traceback__, None
+    while tb is not None:
+        found = codes.get((tb.tb_frame.f_code.co_filename, tb.tb_frame.f_code.co_name), found)
+        tb = tb.tb_next
+    return found
+
+
+_active = threading.local()
+_previous = None
+
+
+_everywhere = []  # the records of ``catching_everywhere`` blocks running now (any thread)
+
+
+def _hook(unraisable):
+    record = getattr(_active, "record", None)
+    if not str(unraisable.object).startswith("<numba."):
+        _previous(unraisable)
+    elif record is not None:
+        if not record:
+            record.append(unraisable.exc_value)
+        if _active.counters is not None:
+            _active.counters[RAISED] += 1
+    elif _everywhere:  # a worker thread of a parallel kernel: no counter to say which trajectory
+        _everywhere[-1].append(unraisable.exc_value)
+    else:
+        _previous(unraisable)
+
+
+def _install():
+    global _previous
+    if sys.unraisablehook is not _hook:
+        _previous, sys.unraisablehook = sys.unraisablehook, _hook
+
+
+@contextlib.contextmanager
+def catching_everywhere():
+    """Record the exceptions user functions raise in kernels run by any thread during this block (a parallel
+    kernel's workers): the list says *that* something raised, not in which trajectory."""
+    _install()
+    record = []
+    _everywhere.append(record)
+    try:
+        yield record
+    finally:
+        _everywhere.remove(record)
+
+
+@contextlib.contextmanager
+def catching(counters=None):
+    """Record the first exception user functions raise inside kernels run in this block (a list, empty or of one).
+
+    ``counters``: the run's counters array, whose ``RAISED`` entry counts them for the step loop.
+    """
+    _install()
+    outer = getattr(_active, "record", None), getattr(_active, "counters", None)
+    _active.record, _active.counters = [], counters
+    try:
+        yield _active.record
+    finally:
+        _active.record, _active.counters = outer

@@ -1,0 +1,49 @@
+"""Numbers at the boundary: one rule for every argument that must be a real number.
+
+Strings, bools and non-numbers are refused (``"0.1"`` and ``True`` are not
+step sizes), integers too large for float64 are refused rather than raising
+OverflowError, and every error names the argument.
+"""
+
+import numbers
+import os
+
+import numpy as np
+
+
+def real(name, value):
+    """``value`` as a float, or a TypeError/ValueError naming ``name``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"`{name}` must be a real number; got {value!r} ({type(value).__name__}).")
+    try:
+        return float(value)
+    except OverflowError:
+        raise ValueError(f"`{name}` must be finite in float64; got an integer of {len(str(abs(value)))} digits.") from None
+
+
+def reals(name, values):
+    """``values`` (a number or a 1-D sequence of real numbers, all finite) as a float64 array, or a
+    TypeError/ValueError naming ``name``."""
+    try:
+        array = np.asarray(values)
+    except (TypeError, ValueError):  # ragged
+        array = None
+    if array is None or array.dtype.kind not in "iuf":
+        raise TypeError(f"`{name}` must be a sequence of real numbers; got {values!r}.")
+    if array.ndim > 1:
+        raise ValueError(f"`{name}` must be 1-dimensional; got shape {array.shape}.")
+    array = array.astype(np.float64).reshape(-1)
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"`{name}` must be finite; got {array.tolist()!r}.")
+    return array
+
+
+def memory_problem(nbytes):
+    """None when ``nbytes`` fits in half this machine's memory, else the figures as text."""
+    try:
+        available = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return None
+    if nbytes <= available // 2:
+        return None
+    return f"needs {nbytes / 2**30:.3g} GiB, more than half this machine's memory ({available / 2**30:.3g} GiB)"

@@ -1,0 +1,406 @@
+"""Ensembles and sweeps: many trajectories in one compiled call, on every core, or on a Dask cluster.
+
+``solve_ensemble`` integrates ``n`` starts (each with its own parameters and
+eps, if given) with one compiled batch kernel over numba's parallel range
+(``geomint._kernels.batch``, run by one thread per core; it releases the GIL):
+no Python per trajectory or per step.  Each
+trajectory runs exactly the step loop of ``geomint.solve``, so trajectory
+``i`` is bit for bit ``solve(system, X0[i], ...)``.  A failure stops only its
+own trajectory; its rows up to the failure are kept, the rest padded with NaN
+(``rows`` says how many are valid), and its status and message are kept.
+
+``backend="dask"`` ships chunks of trajectories to a ``dask.distributed``
+client (``pip install geomint[dask]``); each worker runs the same batch
+kernel, so the arrays equal the local ones bit for bit, and a worker lost
+mid-run has its chunks run again by Dask.
+
+``sweep`` runs a grid of eps values and parameter sets over the same starts.
+"""
+
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from . import _user_errors, _validate
+from ._kernels import batch as _batch
+from ._kernels import driver as _driver
+from ._kernels import layout as _layout
+from .integrators import resolve
+from .solution import Solution
+from .solve import _check_memory, _check_save_every, _check_span, _check_step, _interrupts, _message, step_count
+from .system import MetriplecticSystem
+
+#: trajectories per call of the batch kernel (between calls: progress, Ctrl-C, Dask tasks)
+CHUNK = 256
+#: status of a trajectory whose start was refused (not finite, or H or S not finite there); it is not run
+INVALID_START = -5
+#: status of a trajectory not run because Ctrl-C stopped the ensemble first
+NOT_RUN = 3
+
+
+@dataclass(frozen=True)
+class Ensemble:
+    """``n`` trajectories of one system and method, stacked.
+
+    Attributes
+    ----------
+    t : (n, rows) array
+        Saved times of each trajectory; NaN after its ``rows[i]`` valid rows.
+    x : (n, rows, 3) array
+        States at ``t`` (NaN-padded likewise).
+    H, S : (n, rows) arrays
+        Energy and Casimir at ``t``.
+    rows : (n,) int array
+        Valid rows of each trajectory.
+    status : (n,) int array
+        ``geomint.Solution.status`` of each trajectory, and -5: the start was
+        refused (not finite, or H or S not finite there), 3: not run (Ctrl-C).
+    failed_step : (n,) int array
+        The failed step, 0 where none failed.
+    messages : tuple of str
+        What happened to each trajectory.
+    n_steps, n_newton, nfev : (n,) int arrays
+        Work per trajectory.
+    eps : (n,) array
+        eps of each trajectory.
+    params : (n, p) array
+        Parameters of each trajectory.
+    method : Integrator
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    H: np.ndarray
+    S: np.ndarray
+    rows: np.ndarray
+    status: np.ndarray
+    failed_step: np.ndarray
+    messages: tuple
+    n_steps: np.ndarray
+    n_newton: np.ndarray
+    nfev: np.ndarray
+    eps: np.ndarray
+    params: np.ndarray
+    method: object
+
+    def __len__(self):
+        return len(self.status)
+
+    @property
+    def success(self):
+        """True where the trajectory reached ``t_end``, shape (n,)."""
+        return self.status == 0
+
+    @property
+    def x_final(self):
+        """The last state each trajectory reached, shape (n, 3) (its start if it was not run)."""
+        return self.x[np.arange(len(self)), np.maximum(self.rows - 1, 0)]
+
+    def solution(self, i):
+        """Trajectory ``i`` as a ``geomint.Solution``."""
+        n = int(self.rows[i])
+        status = int(self.status[i])
+        return Solution(t=self.t[i, :n].copy(), x=self.x[i, :n].copy(), H=self.H[i, :n].copy(),
+                        S=self.S[i, :n].copy(), success=status == 0, status=status, message=self.messages[i],
+                        failed_step=int(self.failed_step[i]) or None, n_steps=int(self.n_steps[i]),
+                        n_newton=int(self.n_newton[i]), nfev=int(self.nfev[i]), method=self.method)
+
+    def to_xarray(self, param_names=None):
+        """An ``xarray.Dataset`` (optional dependency: ``pip install geomint[xarray]``).
+
+        Dimensions ``trajectory``, ``time`` (the saved rows; ``t`` is a
+        coordinate per trajectory) and ``component``; eps, the parameters
+        (named by ``param_names`` if given), status and rows are coordinates of
+        ``trajectory``.
+        """
+        try:
+            import xarray as xr
+        except ImportError:
+            raise ImportError("Ensemble.to_xarray needs xarray: pip install geomint[xarray]") from None
+        names = list(param_names) if param_names is not None else [f"p{k}" for k in range(self.params.shape[1])]
+        if len(names) != self.params.shape[1]:
+            raise ValueError(f"`param_names` must name {self.params.shape[1]} parameters; got {names!r}.")
+        coords = {"component": ["x", "y", "z"], "eps": ("trajectory", self.eps), "status": ("trajectory", self.status),
+                  "rows": ("trajectory", self.rows), "t": (("trajectory", "time"), self.t)}
+        coords.update({name: ("trajectory", self.params[:, k]) for k, name in enumerate(names)})
+        return xr.Dataset({"x": (("trajectory", "time", "component"), self.x), "H": (("trajectory", "time"), self.H),
+                           "S": (("trajectory", "time"), self.S)}, coords=coords)
+
+
+def solve_ensemble(system, X0, t_span, h, method="gonzalez", *, params=None, eps=None, save_every=1, progress=None,
+                   backend="local", client=None, chunk=CHUNK, threads=None):
+    """Integrate every start ``X0[i]`` with a fixed step, in one compiled batch kernel over all cores.
+
+    Parameters
+    ----------
+    system : MetriplecticSystem
+    X0 : array_like, shape (n, 3)
+        Starts.  A row that is not finite, or where H or S is not finite, is
+        refused for that trajectory only (``status`` -5); the others run.
+    t_span, h, method, save_every
+        As in ``geomint.solve``, shared by all trajectories.
+    params : array_like, shape (n, p), optional
+        Parameters of each trajectory (default: the system's, for all).
+    eps : array_like, shape (n,), optional
+        eps of each trajectory (default: the system's, for all).
+    progress : callable, optional
+        Called as ``progress(trajectories_done)`` after each chunk.
+    backend : "local" or "dask"
+        ``"dask"`` runs chunks on ``client`` (a ``dask.distributed.Client``;
+        the default client if None).
+    chunk : int
+        Trajectories per round of kernel calls (per Dask task).
+    threads : int, optional
+        Threads running the compiled kernel (it releases the GIL) on
+        interleaved trajectories of a chunk; default: the cores numba sees.
+
+    Returns
+    -------
+    Ensemble
+        Trajectory ``i`` equals ``geomint.solve(system, X0[i], ...)`` bit for
+        bit (run with its own params and eps).  Ctrl-C stops between chunks:
+        trajectories not run have status 3.
+    """
+    if not isinstance(system, MetriplecticSystem):
+        raise TypeError(f"`system` must be a geomint.MetriplecticSystem; got {type(system).__name__}.")
+    if progress is not None and not callable(progress):
+        raise TypeError(f"`progress` must be None or a callable taking the trajectories done; got {progress!r}.")
+    if backend not in ("local", "dask"):
+        raise ValueError(f"`backend` must be 'local' or 'dask'; got {backend!r}.")
+    for name, value in (("chunk", chunk), ("threads", 1 if threads is None else threads)):
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise ValueError(f"`{name}` must be an integer >= 1; got {value!r}.")
+    threads_given = threads is not None
+    threads = numba.config.NUMBA_NUM_THREADS if threads is None else int(threads)
+    X0 = _starts(X0)
+    n = len(X0)
+    params = _per_trajectory_params(system, params, n)
+    eps = _per_trajectory_eps(system, eps, n)
+    integrator = resolve(method)
+    if not integrator.whole_field and np.any(eps != 0.0):
+        raise ValueError(f"`method` {integrator!r} integrates the {integrator.flows[0]} flow only, so alone it needs "
+                         "eps = 0 for every trajectory.")
+    integrator.check_system(system)
+    t0, t_end = _check_span(t_span)
+    h = _check_step(h, t0, t_end)
+    n_steps = step_count(t0, t_end, h)
+    save_every = _check_save_every(save_every, n_steps)
+    rows = n_steps // save_every + 2
+    _check_memory(rows * n)
+    if backend == "dask":
+        return _on_dask(client, system, X0, t_span, h, integrator, params, eps, save_every, progress, chunk,
+                        threads if threads_given else 1)
+    return _run_local(system, X0, t0, t_end, h, n_steps, integrator, params, eps, save_every, rows, progress, chunk,
+                      threads)
+
+
+def sweep(system, X0, t_span, h, method="gonzalez", *, eps=None, params=None, **options):
+    """Every start of ``X0`` for every combination of ``eps`` (a sequence) and ``params`` (a sequence of parameter
+    vectors): one ``solve_ensemble`` over the grid, trajectories ordered eps-major, then params, then starts.
+
+    ``options`` go to ``solve_ensemble`` (``save_every``, ``progress``, ``backend``...).  The result's
+    ``eps`` and ``params`` say which point of the grid each trajectory belongs to.
+    """
+    X0 = _starts([X0] if np.ndim(X0) == 1 else X0)
+    eps_values = [system.eps] if eps is None else list(_validate.reals("eps", eps))
+    param_sets = [system.params] if params is None else [np.asarray(p, dtype=np.float64) for p in params]
+    grid = [(e, p, x) for e in eps_values for p in param_sets for x in X0]
+    return solve_ensemble(system, np.array([x for _, _, x in grid]), t_span, h, method,
+                          eps=np.array([e for e, _, _ in grid]), params=np.array([p for _, p, _ in grid]), **options)
+
+
+# -- input ---------------------------------------------------------------------------------------
+def _starts(X0):
+    try:
+        X = np.array(X0, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise TypeError(f"`X0` must be an array of starts, shape (n, 3); got {X0!r}.") from None
+    if isinstance(X0, (str, bytes)) or np.asarray(X0).dtype.kind not in "iuf":
+        raise TypeError(f"`X0` must be an array of real starts, shape (n, 3); got {X0!r}.")
+    if X.ndim != 2 or X.shape[1] != 3 or X.shape[0] < 1:
+        raise ValueError(f"`X0` must have shape (n, 3) with n >= 1; got shape {X.shape}.")
+    return X
+
+
+def _per_trajectory_params(system, params, n):
+    p = system.params
+    if params is None:
+        return np.tile(p, (n, 1))
+    try:
+        array = np.array(params, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise TypeError(f"`params` must be an array of shape (n, {p.size}); got {params!r}.") from None
+    if array.shape != (n, p.size):
+        raise ValueError(f"`params` must have shape (n, p) = ({n}, {p.size}), a row per start; got shape "
+                         f"{array.shape}.")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"`params` must be finite; row {int(np.argmax(~np.all(np.isfinite(array), axis=1)))} "
+                         "is not.")
+    return np.ascontiguousarray(array)
+
+
+def _per_trajectory_eps(system, eps, n):
+    if eps is None:
+        return np.full(n, system.eps)
+    array = _validate.reals("eps", eps)
+    if array.shape != (n,):
+        raise ValueError(f"`eps` must have shape (n,) = ({n},), one per start; got shape {array.shape}.")
+    if np.any(array < 0.0):
+        raise ValueError(f"`eps` must be >= 0; got {array[array < 0.0][0]!r}.")
+    return array
+
+
+def _refused(system, X0, params):
+    """Per start: None if it can run, else why not (not finite; H or S not finite or raising there)."""
+    f = system.functions
+    reasons = []
+    for x, p in zip(X0, params):
+        if not np.all(np.isfinite(x)):
+            reasons.append(f"x0 = {x.tolist()} is not finite; not run.")
+            continue
+        try:
+            H0, S0 = float(f.H(x.copy(), p)), float(f.S(x.copy(), p))
+        except Exception as error:  # noqa: BLE001 - the user's function: its exception is the reason
+            reasons.append(f"H or S raised {error!r} at x0 = {x.tolist()}; not run.")
+            continue
+        reasons.append(None if np.isfinite(H0) and np.isfinite(S0) else
+                       f"H and S must be finite at x0; at x0 = {x.tolist()} H = {H0!r}, S = {S0!r}; not run.")
+    return reasons
+
+
+# -- the local backend -------------------------------------------------------------------------------
+def _run_local(system, X0, t0, t_end, h, n_steps, integrator, params, eps, save_every, rows, progress, chunk, threads):
+    n = len(X0)
+    method_data = integrator.lower(system)
+    slots = getattr(method_data, "slots", 1)
+    states = np.zeros((n, _layout.N_STATE))
+    states[:, :3] = np.where(np.isfinite(X0), X0, 0.0)
+    works = np.zeros((n, slots * _layout.WORK))
+    t, x, H, S = _batch.empty_outputs(n, rows)
+    counters = np.zeros((n, _layout.N_COUNTERS), dtype=np.int64)
+    residuals = np.zeros((n, 1))
+    origins = np.array([system._origin(p) for p in params]) if n and np.any(params != system.params) else \
+        np.broadcast_to(system.model.origin, (n, system.model.origin.size)).copy()
+    reasons = _refused(system, X0, params)
+    counters[[r is not None for r in reasons], _layout.STATUS] = INVALID_START
+    grid = _driver.Grid(t0, h, n_steps, (t_end - t0) - (n_steps - 1) * h, save_every)
+    arrays = (states, works, t, x, H, S, counters, residuals)
+    raised_by = {}
+    threads = max(1, min(threads, chunk))
+    with _user_errors.catching_everywhere() as raised, _interrupts() as interrupted, \
+            ThreadPoolExecutor(threads) as pool:
+        for begin in range(0, n, chunk):
+            part = slice(begin, min(n, begin + chunk))
+            if interrupted:
+                counters[part, _layout.STATUS] = np.where(counters[part, _layout.STATUS] == 0, NOT_RUN,
+                                                          counters[part, _layout.STATUS])
+                continue
+            snapshot = [a[part].copy() for a in arrays]
+            views = [a[part] for a in (params, origins, eps)] + [a[part] for a in arrays]
+
+            def run(first, views=views):
+                p, o, e, st, wo, tt, xx, HH, SS, co, re = views
+                _batch.integrate_batch(system.model, p, o, e, system.hamiltonian, method_data, st, wo, n_steps, grid,
+                                       tt, xx, HH, SS, co, re, first, threads)
+
+            list(pool.map(run, range(threads)))
+            if raised:  # a user function raised on a worker thread: rerun the chunk where the hook can count it
+                for array, saved in zip(arrays, snapshot):
+                    array[part] = saved
+                raised_by.update(_rerun_serially(system, params, origins, eps, method_data, grid, arrays, part))
+                raised.clear()
+            if progress is not None:
+                progress(part.stop)
+    return _collect(system, integrator, X0, t0, h, params, eps, arrays, reasons, raised_by)
+
+
+def _rerun_serially(system, params, origins, eps, method_data, grid, arrays, part):
+    """The chunk's trajectories one by one in this thread, each counting its own user-function exceptions."""
+    states, works, t, x, H, S, counters, residuals = arrays
+    raised_by = {}
+    for i in range(part.start, part.stop):
+        if counters[i, _layout.STATUS] != _layout.OK:
+            continue
+        model = system.model._replace(params=params[i], origin=origins[i])
+        with _user_errors.catching(counters[i]) as raised:
+            _driver.integrate(model, eps[i], system.hamiltonian, method_data, states[i], works[i], 0, grid.n_steps,
+                              grid, _driver.Output(t[i], x[i], H[i], S[i], counters[i], residuals[i]))
+        if raised:
+            raised_by[i] = raised[0]
+    return raised_by
+
+
+def _collect(system, integrator, X0, t0, h, params, eps, arrays, reasons, raised_by):
+    from .solve import _raised_message
+
+    _, _, t, x, H, S, counters, residuals = arrays
+    n = len(X0)
+    row_count = counters[:, _layout.ROWS].copy()
+    status = counters[:, _layout.STATUS].copy()
+    used = max(1, int(row_count.max()))
+    messages = []
+    for i in range(n):
+        if reasons[i] is not None:
+            messages.append(reasons[i])
+            x[i, 0], row_count[i] = X0[i], 1
+            continue
+        if status[i] == NOT_RUN:
+            messages.append("Not run: Ctrl-C stopped the ensemble first.")
+            x[i, 0], row_count[i] = X0[i], 1
+            continue
+        what = None
+        if status[i] == _layout.USER_RAISED:
+            own = system if np.array_equal(params[i], system.params) else None
+            what = (_raised_message(own, x[i, row_count[i] - 1], h, [raised_by.get(i)]) if own is not None else
+                    f"a user function raised {raised_by.get(i)!r}")
+        failed = int(counters[i, _layout.FAILED_STEP]) if status[i] < 0 else None
+        messages.append(_message(int(status[i]), failed, int(row_count[i]), t0, h, counters[i], residuals[i, 0],
+                                 integrator, what))
+    return Ensemble(
+        t=t[:, :used], x=x[:, :used], H=H[:, :used], S=S[:, :used], rows=row_count, status=status,
+        failed_step=np.where(status < 0, counters[:, _layout.FAILED_STEP], 0), messages=tuple(messages),
+        n_steps=counters[:, _layout.STEPS].copy(), n_newton=counters[:, _layout.NEWTON_ITERATIONS].copy(),
+        nfev=counters[:, _layout.FIELD_EVALUATIONS].copy(), eps=eps, params=params, method=integrator)
+
+
+# -- the Dask backend --------------------------------------------------------------------------------
+def _on_dask(client, system, X0, t_span, h, integrator, params, eps, save_every, progress, chunk, threads):
+    try:
+        from distributed import as_completed, default_client
+    except ImportError:
+        raise ImportError("backend='dask' needs dask.distributed: pip install geomint[dask]") from None
+    client = default_client() if client is None else client
+    parts = [slice(b, min(len(X0), b + chunk)) for b in range(0, len(X0), chunk)]
+    futures = [client.submit(_dask_task, system, X0[p], t_span, h, integrator, params[p], eps[p], save_every,
+                             threads, pure=False) for p in parts]
+    size = {future.key: p.stop - p.start for future, p in zip(futures, parts)}
+    done = 0
+    for future in as_completed(futures):
+        done += size[future.key]
+        if progress is not None:
+            progress(done)
+    return _concatenate(client.gather(futures), integrator)
+
+
+def _dask_task(system, X0, t_span, h, integrator, params, eps, save_every, threads):
+    """One chunk on a Dask worker: the local batch kernel."""
+    return solve_ensemble(system, X0, t_span, h, integrator, params=params, eps=eps, save_every=save_every,
+                          chunk=len(X0), threads=threads)
+
+
+def _concatenate(parts, integrator):
+    used = max(p.t.shape[1] for p in parts)
+
+    def pad(array):
+        extra = used - array.shape[1]
+        return np.concatenate([array, np.full((array.shape[0], extra) + array.shape[2:], np.nan)], axis=1) \
+            if extra else array
+
+    return Ensemble(
+        t=np.concatenate([pad(p.t) for p in parts]), x=np.concatenate([pad(p.x) for p in parts]),
+        H=np.concatenate([pad(p.H) for p in parts]), S=np.concatenate([pad(p.S) for p in parts]),
+        **{name: np.concatenate([getattr(p, name) for p in parts])
+           for name in ("rows", "status", "failed_step", "n_steps", "n_newton", "nfev", "eps", "params")},
+        messages=tuple(m for p in parts for m in p.messages), method=integrator)

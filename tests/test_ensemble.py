@@ -1,0 +1,154 @@
+"""Ensembles and sweeps: each trajectory is its own ``solve``, bit for bit; failures stay per trajectory; Dask
+gives the same arrays and survives a worker killed mid-run."""
+
+import os
+import signal
+import sys
+
+import numpy as np
+import pytest
+
+import geomint
+from test_user_errors import _grad_S_raising_below_half, _oscillator
+
+BODY = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
+STARTS = np.random.default_rng(5).normal(size=(23, 3))
+STARTS /= np.linalg.norm(STARTS, axis=1)[:, None]
+
+
+def _same(ensemble, i, sol):
+    n = ensemble.rows[i]
+    for name in ("t", "x", "H", "S"):
+        np.testing.assert_array_equal(getattr(ensemble, name)[i, :n], getattr(sol, name))
+    assert (ensemble.status[i], ensemble.n_steps[i], ensemble.n_newton[i], ensemble.nfev[i]) == (
+        sol.status, sol.n_steps, sol.n_newton, sol.nfev)
+    assert ensemble.messages[i] == sol.message
+
+
+@pytest.mark.parametrize("method", ["gonzalez", "rk4", "yoshida4", "projected", "itoh_abe"])
+def test_each_trajectory_is_its_own_solve_bit_for_bit(method):
+    ensemble = geomint.solve_ensemble(BODY, STARTS, (0.0, 3.0), 0.05, method=method, save_every=7, chunk=5)
+    assert len(ensemble) == len(STARTS) and np.all(ensemble.success)
+    for i in (0, 4, 5, 22):
+        _same(ensemble, i, geomint.solve(BODY, STARTS[i], (0.0, 3.0), 0.05, method=method, save_every=7))
+
+
+def test_threads_and_chunks_do_not_change_a_bit():
+    one = geomint.solve_ensemble(BODY, STARTS, (0.0, 2.0), 0.05, threads=1, chunk=len(STARTS))
+    many = geomint.solve_ensemble(BODY, STARTS, (0.0, 2.0), 0.05, threads=3, chunk=4)
+    for name in ("t", "x", "H", "S", "n_newton"):
+        np.testing.assert_array_equal(getattr(one, name), getattr(many, name))
+
+
+def test_a_sweep_runs_each_eps_and_parameter_set_as_its_own_system():
+    sets = [[0.5, 1.0, 1.5], [0.3, 1.0, 2.0]]
+    result = geomint.sweep(BODY, STARTS[:3], (0.0, 2.0), 0.05, eps=[0.0, 0.5], params=sets, save_every=None)
+    assert len(result) == 2 * 2 * 3
+    k = 0
+    for eps in (0.0, 0.5):
+        for a, b, c in sets:
+            system = geomint.systems.relaxing_rigid_body(a, b, c, eps=eps)
+            for x0 in STARTS[:3]:
+                assert result.eps[k] == eps and result.params[k].tolist() == [a, b, c]
+                _same(result, k, geomint.solve(system, x0, (0.0, 2.0), 0.05, save_every=None))
+                k += 1
+
+
+def test_failures_stay_with_their_trajectory_and_keep_their_rows():
+    """A non-finite start is refused alone; RK4 blowing up on a stiff start fails alone, its rows kept."""
+    stiff = geomint.systems.quartic_rigid_body(k=2.0, eps=50.0)
+    X0 = np.array([[1.5, -1.2, 0.9], [np.nan, 0.0, 0.0], [0.3, 0.2, 0.1], [1e200, 0.0, 0.0]])
+    ensemble = geomint.solve_ensemble(stiff, X0, (0.0, 20.0), 0.2, method="rk4", save_every=2)
+    assert ensemble.status.tolist()[1:] == [-5, 0, -5] and ensemble.status[0] == -2
+    assert "not finite" in ensemble.messages[1] and "H and S must be finite at x0" in ensemble.messages[3]
+    alone = geomint.solve(stiff, X0[0], (0.0, 20.0), 0.2, method="rk4", save_every=2)
+    _same(ensemble, 0, alone)
+    assert np.all(np.isnan(ensemble.x[0, ensemble.rows[0]:])) and ensemble.failed_step[0] == alone.failed_step
+    _same(ensemble, 2, geomint.solve(stiff, X0[2], (0.0, 20.0), 0.2, method="rk4", save_every=2))
+    assert ensemble.solution(0).message == alone.message
+
+
+def test_a_user_function_that_raises_fails_only_its_trajectories():
+    system = _oscillator(grad_S=_grad_S_raising_below_half)
+    X0 = np.array([[0.1, 0.2, 0.9], [0.0, 0.1, 0.99], [0.0, 0.0, 3.0]])  # the third is at rest at z = 3
+    ensemble = geomint.solve_ensemble(system, X0, (0.0, 3.0), 0.01, threads=2)
+    assert ensemble.status.tolist() == [-4, -4, 0]
+    assert all("`grad_S` raised ValueError" in m for m in ensemble.messages[:2])
+    _same(ensemble, 0, geomint.solve(system, X0[0], (0.0, 3.0), 0.01))
+
+
+def test_to_xarray_labels_trajectories_times_components_and_parameters():
+    ensemble = geomint.sweep(BODY, STARTS[:2], (0.0, 1.0), 0.1, eps=[0.1, 0.2])
+    data = ensemble.to_xarray(param_names=["a", "b", "c"])
+    assert dict(data["x"].sizes) == {"trajectory": 4, "time": 11, "component": 3}
+    assert data["eps"].values.tolist() == [0.1, 0.1, 0.2, 0.2] and data["c"].values.tolist() == [1.5] * 4
+    np.testing.assert_array_equal(data["x"].values, ensemble.x)
+
+
+@pytest.mark.parametrize("kwargs, error, match", [
+    (dict(X0=[0.1, 0.2, 0.3]), ValueError, r"`X0` must have shape \(n, 3\) with n >= 1; got shape \(3,\)"),
+    (dict(X0=np.zeros((2, 2))), ValueError, r"`X0` must have shape \(n, 3\)"),
+    (dict(X0="abc"), TypeError, r"`X0` must be an array"),
+    (dict(params=np.ones((3, 3))), ValueError, r"`params` must have shape \(n, p\) = \(2, 3\), a row per start"),
+    (dict(params=[[1, 2, np.nan]] * 2), ValueError, r"`params` must be finite; row 0"),
+    (dict(eps=[0.1]), ValueError, r"`eps` must have shape \(n,\) = \(2,\)"),
+    (dict(eps=[0.1, -1.0]), ValueError, r"`eps` must be >= 0"),
+    (dict(backend="spark"), ValueError, r"`backend` must be 'local' or 'dask'; got 'spark'"),
+    (dict(chunk=0), ValueError, r"`chunk` must be an integer >= 1; got 0"),
+    (dict(threads=True), ValueError, r"`threads` must be an integer >= 1; got True"),
+    (dict(h="0.1"), TypeError, r"`h` must be a real number"),
+    (dict(progress=3), TypeError, r"`progress` must be None or a callable"),
+])
+def test_bad_input_is_refused_with_the_rule(kwargs, error, match):
+    arguments = dict(system=BODY, X0=STARTS[:2], t_span=(0.0, 1.0), h=0.1)
+    arguments.update(kwargs)
+    with pytest.raises(error, match=match):
+        geomint.solve_ensemble(**arguments)
+
+
+def test_the_dask_backend_without_dask_says_which_extra_to_install(monkeypatch):
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    with pytest.raises(ImportError, match=r"pip install geomint\[dask\]"):
+        geomint.solve_ensemble(BODY, STARTS[:2], (0.0, 1.0), 0.1, backend="dask")
+
+
+@pytest.fixture(scope="module")
+def dask_client():
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        yield client
+
+
+def test_dask_gives_the_local_arrays_bit_for_bit(dask_client):
+    local = geomint.solve_ensemble(BODY, STARTS, (0.0, 3.0), 0.05, save_every=3)
+    remote = geomint.solve_ensemble(BODY, STARTS, (0.0, 3.0), 0.05, save_every=3, backend="dask", client=dask_client,
+                                    chunk=4)
+    for name in ("t", "x", "H", "S", "rows", "status", "n_newton", "nfev"):
+        np.testing.assert_array_equal(getattr(remote, name), getattr(local, name))
+    assert remote.messages == local.messages
+
+
+def test_a_dask_worker_killed_mid_run_loses_nothing(dask_client):
+    """At the first finished chunk a worker that is still computing is killed (SIGKILL); Dask runs its chunks
+    again elsewhere and the arrays equal the local ones."""
+    killed = []
+
+    def kill_a_busy_worker(done):
+        if killed:
+            return
+        busy = [address for address, keys in dask_client.processing().items() if keys]
+        pids = dask_client.run(os.getpid)
+        if busy:
+            killed.append(pids[busy[0]])
+            os.kill(pids[busy[0]], signal.SIGKILL)
+
+    X0 = np.concatenate([STARTS] * 4)
+    local = geomint.solve_ensemble(BODY, X0, (0.0, 60.0), 0.01, save_every=None)
+    remote = geomint.solve_ensemble(BODY, X0, (0.0, 60.0), 0.01, save_every=None, backend="dask", client=dask_client,
+                                    chunk=4, progress=kill_a_busy_worker)
+    assert killed, "no worker was busy when the first chunk finished"
+    assert killed[0] not in dask_client.run(os.getpid).values()
+    np.testing.assert_array_equal(remote.x, local.x)
+    assert np.all(remote.success)
+
