@@ -29,7 +29,9 @@ from ._kernels import driver as _driver
 from ._kernels import layout as _layout
 from .integrators import resolve
 from .solution import Solution
-from .solve import _check_memory, _check_save_every, _check_span, _check_step, _interrupts, _message, step_count
+from .solve import (
+    _check_memory, _check_save_every, _check_span, _check_step, _interrupts, _message, _raised_message, step_count,
+)
 from .system import MetriplecticSystem
 
 #: trajectories per call of the batch kernel (between calls: progress, Ctrl-C, Dask tasks)
@@ -281,8 +283,10 @@ def _run_local(system, X0, t0, t_end, h, n_steps, integrator, params, eps, save_
     t, x, H, S = _batch.empty_outputs(n, rows)
     counters = np.zeros((n, _layout.N_COUNTERS), dtype=np.int64)
     residuals = np.zeros((n, 1))
-    origins = np.array([system._origin(p) for p in params]) if n and np.any(params != system.params) else \
-        np.broadcast_to(system.model.origin, (n, system.model.origin.size)).copy()
+    if np.all(params == system.params):
+        origins = np.tile(system.model.origin, (n, 1))
+    else:  # the constant and linear terms of H and S depend on the parameters
+        origins = np.array([system._origin(p) for p in params])
     reasons = _refused(system, X0, params)
     counters[[r is not None for r in reasons], _layout.STATUS] = INVALID_START
     grid = _driver.Grid(t0, h, n_steps, (t_end - t0) - (n_steps - 1) * h, save_every)
@@ -333,8 +337,6 @@ def _rerun_serially(system, params, origins, eps, method_data, grid, arrays, par
 
 
 def _collect(system, integrator, X0, t0, h, params, eps, arrays, reasons, raised_by):
-    from .solve import _raised_message
-
     _, _, t, x, H, S, counters, residuals = arrays
     n = len(X0)
     row_count = counters[:, _layout.ROWS].copy()

@@ -134,14 +134,13 @@ def test_there_are_15_whole_field_integrators():
 
 
 @pytest.mark.parametrize("method", WHOLE_FIELD)
-def test_every_whole_field_integrator_runs_from_the_command_line(tmp_path, method):
+def test_every_whole_field_integrator_runs_from_the_command_line(tmp_path, method, capsys):
+    """In this process (``main`` is the console entry point; the subprocess path is tested elsewhere)."""
     text = (SHORT.replace('method = "gonzalez"', f'method = "{method}"\n{OPTIONS.get(method, "")}')
             .replace("duration = 2.0", "duration = 0.4").replace("n = 3", "n = 2")
             .replace('figures = ["overview", "invariants", "trajectories"]', 'figures = ["overview"]'))
     out = tmp_path / "out"
-    done = subprocess.run([sys.executable, "-m", "geomint.cli", "run", str(_scene(tmp_path, text)), "--out", str(out),
-                           "--quiet"], capture_output=True, text=True, cwd=tmp_path)
-    assert done.returncode == OK, done.stderr
+    assert main(["run", str(_scene(tmp_path, text)), "--out", str(out), "--quiet"]) == OK, capsys.readouterr().err
     summary = json.loads((out / "short.summary.json").read_text())
     assert summary["method"]["name"] == method and summary["totals"]["failed"] == 0
     written = summary["scene"]["integrator"]["method"]  # a bare name when the method has no options
