@@ -1,8 +1,8 @@
 """geomint: structure-preserving integrators for metriplectic systems in R^3."""
 
-from . import analysis, continuation, diagnostics, level_set, reference, systems
+from . import analysis, continuation, diagnostics, events, level_set, reference, systems
 from .integrators import (
-    AVF, RK4, Composition, DampedGonzalez, Gonzalez, Integrator, ItohAbe, KahanLi6, KahanLi8, Lie, OscillatorRotation,
+    AVF, RK4, BogackiShampine32, Composition, DampedGonzalez, DormandPrince54, DormandPrince853, Gonzalez, Integrator, ItohAbe, KahanLi6, KahanLi8, Lie, OscillatorRotation,
     Projected, RigidBodyFlow, RotorSplitting, Strang, Suzuki4, SuzukiUmeno8, SymmetrizedItohAbe, Yoshida4, Yoshida6,
 )
 from ._user_errors import UserFunctionError
@@ -16,9 +16,10 @@ from .system import MetriplecticSystem
 __version__ = "0.1.0"
 
 __all__ = [
-    "AVF", "RK4", "Composition", "DampedGonzalez", "Ensemble", "Gonzalez", "Integrator", "ItohAbe", "KahanLi6",
+    "AVF", "RK4", "BogackiShampine32", "Composition", "DampedGonzalez", "DormandPrince54", "DormandPrince853",
+    "Ensemble", "Gonzalez", "Integrator", "ItohAbe", "KahanLi6",
     "KahanLi8", "Lie", "MetriplecticSystem", "OscillatorRotation", "Projected", "RigidBodyFlow", "RotorSplitting",
     "Scene", "SceneError", "SceneResult", "Solution", "Strang", "Suzuki4", "SuzukiUmeno8", "SymmetrizedItohAbe",
-    "UserFunctionError", "Yoshida4", "Yoshida6", "__version__", "analysis", "continuation", "diagnostics", "level_set",
+    "UserFunctionError", "Yoshida4", "Yoshida6", "__version__", "analysis", "continuation", "diagnostics", "events", "level_set",
     "load", "reference", "run_scene", "solve", "solve_ensemble", "sweep", "systems",
 ]

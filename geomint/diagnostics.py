@@ -116,14 +116,15 @@ def growth_law(t, maxima, t_min, floor=1e-17):
 
 # -- the Casimir ---------------------------------------------------------------------------
 def S_rises(sol, ulps=16):
-    """Indices ``k`` of the saved pairs where ``S_{k+1} - S_k > ulps * eps * max(|S_k|, |S_{k+1}|)``.
+    """Indices ``k`` of the saved pairs where S rose in forward time: ``d (S_{k+1} - S_k) > ulps * eps *
+    max(|S_k|, |S_{k+1}|)``, ``d`` the sign of ``t_{k+1} - t_k`` (a backward run sees S rise as t falls).
 
     ``len(S_rises(sol))`` is ``sol.count_S_rises(ulps)``; the indices say where
     (``sol.t[k + 1]``), for plots.
     """
     S = sol.S
     tol = ulps * EPS * np.maximum(np.abs(S[:-1]), np.abs(S[1:]))
-    return np.flatnonzero(np.diff(S) > tol)
+    return np.flatnonzero(np.sign(np.diff(sol.t)) * np.diff(S) > tol)
 
 
 # -- orders --------------------------------------------------------------------------------

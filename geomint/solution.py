@@ -21,11 +21,12 @@ class Solution:
     H, S : (n,) arrays
         Energy and Casimir at ``t``.
     success : bool
-        True when the run reached ``t_end`` (``status == 0``).
+        True when the run reached ``t_end`` or a terminal event (``status`` 0 or 1).
     status : int
-        0: reached ``t_end``; 2: interrupted by Ctrl-C (SIGINT), the states
-        up to the interrupt kept; -1: a Newton solve did not converge; -2: a
-        step produced a non-finite state; -3: a projection found no point of
+        0: reached ``t_end``; 1: a terminal event stopped the run; 2:
+        interrupted by Ctrl-C (SIGINT), the states up to the interrupt kept;
+        -1: a Newton solve did not converge; -2: a step produced a
+        non-finite state; -3: a projection found no point of
         H = H0 that does not raise S; -4: a user function raised an exception
         during a step (named in ``message``).
     message : str
@@ -33,9 +34,17 @@ class Solution:
     failed_step : int or None
         Index ``k`` of the step ``t_{k-1} -> t_k`` that failed.
     n_steps, n_newton, nfev : int
-        Steps taken, Newton iterations, evaluations of the field (gradient triples).
+        Steps taken (accepted), Newton iterations, evaluations of the field (gradient triples).
     method : Integrator
         The method used.
+    n_rejected : int
+        Attempted steps an adaptive run rejected (0 with a fixed step).
+    t_events, x_events : list of arrays, or None
+        With ``events``: per event, the times of its zeros and the states
+        there (``(n_k, 3)``; each a step of the method landing on that time).
+    sol : callable or None
+        With ``dense_output=True``: the cubic Hermite interpolant through the
+        steps (``geomint.dense.Hermite``), ``sol(t)`` of shape (3,) or (3, m).
     """
 
     t: np.ndarray
@@ -50,6 +59,20 @@ class Solution:
     n_newton: int
     nfev: int
     method: object
+    n_rejected: int = 0
+    t_events: list | None = None
+    x_events: list | None = None
+    sol: object = None
+
+    @property
+    def y(self):
+        """The states in scipy's layout, shape (3, n) (a view of ``x``)."""
+        return self.x.T
+
+    @property
+    def y_events(self):
+        """``x_events``, scipy's name."""
+        return self.x_events
 
     @property
     def t_final(self):
@@ -85,6 +108,8 @@ class Solution:
         return io.to_xarray(self, system)
 
     def count_S_rises(self, ulps=16):
-        """Saved consecutive pairs with ``S_{n+1} - S_n > ulps * eps * max(|S_n|, |S_{n+1}|)``."""
-        tol = ulps * np.finfo(np.float64).eps * np.maximum(np.abs(self.S[:-1]), np.abs(self.S[1:]))
-        return int(np.count_nonzero(np.diff(self.S) > tol))
+        """Saved consecutive pairs where S rose by more than ``ulps`` ulps in forward time
+        (``geomint.diagnostics.S_rises``)."""
+        from .diagnostics import S_rises
+
+        return len(S_rises(self, ulps))

@@ -11,8 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ._kernels import adaptive as _adaptive
 from ._kernels import driver as _driver
 from . import _user_errors, _validate
+from .dense import Hermite
+from .events import Events
 from .io import atomic
 from ._kernels import layout as _layout
 from .integrators import resolve
@@ -23,11 +26,14 @@ _FAILURES = {
     _layout.NEWTON_FAILED: "the Newton iteration did not converge",
     _layout.NON_FINITE: "a non-finite value appeared",
     _layout.PROJECTION_FAILED: "the projection found no point of H = H0 that does not raise S",
+    _layout.STEP_TOO_SMALL: "the error control needed a step below the resolution of t (16 ulp)",
 }
 _ADVICE = {
     _layout.NEWTON_FAILED: "A smaller step `h` usually helps; DampedGonzalez() where h eps |grad H|^2 is large.",
     _layout.NON_FINITE: "Check that the system is defined along the trajectory.",
     _layout.PROJECTION_FAILED: "A smaller step `h` keeps the projection's move small.",
+    _layout.STEP_TOO_SMALL: "Loosen rtol/atol; if the solution is stiff there, DampedGonzalez() takes steps "
+                            "limited by accuracy only.",
     _layout.USER_RAISED: "Return NaN where a function is undefined (the step then fails as non-finite), or keep the "
                          "trajectory inside its domain.",
 }
@@ -41,10 +47,18 @@ FIRST_CHUNK = 1000
 MAX_CHUNK = 10_000_000
 #: the most steps one run may take (step indices and counts stay exact in float64 and int64)
 MAX_STEPS = 1 << 52
+#: scipy's defaults for adaptive steps
+RTOL, ATOL = 1e-3, 1e-6
+#: rows an adaptive run starts with (doubled as it needs)
+FIRST_ROWS = 1024
+#: the statuses of a run that stopped at a terminal event
+TERMINATED = 1
 
 
-def solve(system, x0, t_span, h, method="gonzalez", save_every=1, progress=None, checkpoint=None, resume=None):
-    """Integrate ``dx/dt = xi_P + eps xi_g`` with a fixed step.
+def solve(system, x0, t_span, h=None, method="gonzalez", save_every=1, progress=None, checkpoint=None, resume=None, *,
+          rtol=None, atol=None, first_step=None, max_step=None, t_eval=None, events=None, dense_output=False,
+          args=None):
+    """Integrate ``dx/dt = xi_P + eps xi_g`` with a fixed step ``h``, or with adaptive steps (``h=None``).
 
     Parameters
     ----------
@@ -52,31 +66,62 @@ def solve(system, x0, t_span, h, method="gonzalez", save_every=1, progress=None,
     x0 : array_like, shape (3,)
         Initial state, finite, with H and S finite there.
     t_span : (t0, t_end)
-        Finite real numbers, ``t_end > t0``.  The last step is shortened to land on ``t_end``.
-    h : float
-        Step size, ``0 < h``, small enough to advance ``t0`` in float64 and at most
-        ``2**52`` steps over ``t_span``.
+        Finite real numbers, ``t_end != t0``; ``t_end < t0`` integrates backward
+        (methods whose steps are sign-agnostic: RK4, the pairs, the
+        discrete-gradient family; S then rises as t falls).  The last step is
+        shortened to land on ``t_end``.
+    h : float or None, default None
+        Fixed step size, ``0 < h``, small enough to advance ``t0`` in float64
+        and at most ``2**52`` steps over ``t_span``.  ``None``: adaptive steps
+        with error control (``rtol``, ``atol``); every accepted step keeps H and
+        S as the method does (see ``geomint._kernels.adaptive`` for the
+        estimates and the controller).
     method : Integrator or str, default "gonzalez"
-        An integrator object (``geomint.Gonzalez()``, ``geomint.RK4()``) or its
-        short name (``geomint.integrators.INTEGRATORS``).
+        An integrator object (``geomint.Gonzalez()``, ``geomint.Projected(geomint.DormandPrince54())``)
+        or its short name (``geomint.integrators.INTEGRATORS``).
     save_every : int or None, default 1
-        Save every ``save_every``-th state (and always the last); ``None`` keeps
-        only the initial and final states (constant memory).
+        Fixed steps: save every ``save_every``-th state (and always the last).
+        Adaptive steps: 1 saves every accepted step.  ``None`` keeps only the
+        initial and final states (constant memory).
     progress : callable or None
         Called as ``progress(steps_done)`` between chunks of steps (about 0.1 s
         of work each); the steps themselves run in compiled code with no Python
         work.  Ctrl-C is answered between chunks too: the run stops with
         ``status = 2`` and every state computed so far.
     checkpoint : (path, steps) or None
-        Write the run's state to ``path`` (an ``.npz``, written atomically)
-        every ``steps`` steps or more (between chunks), and when Ctrl-C stops
-        the run.
+        Fixed steps without ``t_eval``/``events``/``dense_output``: write the
+        run's state to ``path`` (an ``.npz``, written atomically) every
+        ``steps`` steps or more, and when Ctrl-C stops the run.
     resume : path or None
         Continue from a checkpoint written by ``solve`` with the same system,
         ``x0``, ``t_span``, ``h``, ``method`` and ``save_every`` (a different
-        run is refused).  The result is identical, bit for bit, to the run
-        that was never stopped: the checkpoint holds the state, its
-        compensation, the Newton history and every saved row.
+        run is refused), identically, bit for bit, to the run never stopped.
+    rtol, atol : float, default 1e-3, 1e-6 (adaptive steps only)
+        The error of each step, ``e``, is kept to
+        ``|e_i| <~ atol + rtol |x_i|`` in the root-mean-square norm, as in scipy.
+        ``rtol >= 100 eps``, ``atol >= 0``, not both 0.
+    first_step, max_step : float or None (adaptive steps only)
+        The first step to try (default: chosen from the field, as scipy does)
+        and the largest allowed (default: no bound).
+    t_eval : array_like or None
+        Times at which to return the state, inside ``t_span`` and sorted in the
+        direction of integration.  The steps **land on them** (a step that would
+        pass one is shortened), so every returned state is a state of the method,
+        exact in H and monotone in S; ``sol.t`` is ``t_eval``.
+    events : callable or sequence of callables
+        ``g(t, x)`` with optional ``terminal`` and ``direction`` attributes, as
+        in scipy (``geomint.events``; built-ins ``events.relaxed``,
+        ``events.crossing``).  Zeros are located on the dense output to a few
+        ulps of t, the state there is a step of the method landing on that
+        time; ``sol.t_events``, ``sol.x_events``.  A terminal event stops the
+        run (``status = 1``).
+    dense_output : bool, default False
+        ``sol.sol(t)``: the cubic Hermite interpolant through every accepted
+        step (``geomint.dense``), shape (3,) or (3, m) as scipy's.  It is not
+        on ``H = H0`` between steps.
+    args : sequence of float or None
+        The system's ``params`` for this run (as scipy's ``args`` reach
+        ``fun``), checked as at construction.
 
     Returns
     -------
@@ -92,11 +137,16 @@ def solve(system, x0, t_span, h, method="gonzalez", save_every=1, progress=None,
     >>> sol = geomint.solve(body, [0.4536, 0.0, 0.8912], (0.0, 10.0), h=0.05)
     >>> sol.success, sol.energy_error < 1e-14, sol.S_rises
     (True, True, 0)
+    >>> sol = geomint.solve(body, [0.4536, 0.0, 0.8912], (0.0, 10.0), rtol=1e-8, atol=1e-10)
+    >>> sol.success, sol.energy_error < 1e-14, sol.S_rises
+    (True, True, 0)
     """
     if not isinstance(system, MetriplecticSystem):
         raise TypeError(f"`system` must be a geomint.MetriplecticSystem; got {type(system).__name__}.")
     if progress is not None and not callable(progress):
         raise TypeError(f"`progress` must be None or a callable taking the steps done; got {progress!r}.")
+    if args is not None:
+        system = _with_args(system, args)
     integrator = resolve(method)
     if not integrator.whole_field and system.eps != 0.0:
         raise ValueError(
@@ -106,15 +156,41 @@ def solve(system, x0, t_span, h, method="gonzalez", save_every=1, progress=None,
     integrator.check_system(system)
     x0 = _check_state(system, x0)
     t0, t_end = _check_span(t_span)
-    h = _check_step(h, t0, t_end)
+    method_data = integrator.lower(system)
+    if t_end < t0 and not _reversible(method_data):
+        raise ValueError(f"`t_span` = {t_span!r} runs backward, which {integrator!r} cannot: its S safeguard or "
+                         "projection keeps S from rising, as S must backward. Use Gonzalez(), another discrete "
+                         "gradient, RK4() or a Runge-Kutta pair.")
+    if not isinstance(dense_output, (bool, np.bool_)):
+        raise TypeError(f"`dense_output` must be True or False; got {dense_output!r}.")
+    events = None if events is None else Events(events)
+    t_eval = None if t_eval is None else _check_t_eval(t_eval, t0, t_end)
+    if h is not None:
+        given = [name for name, v in (("rtol", rtol), ("atol", atol), ("first_step", first_step),
+                                      ("max_step", max_step)) if v is not None]
+        if given:
+            raise ValueError(f"`h` = {h!r} fixes the step, so `{given[0]}` cannot be given too; pass h=None for "
+                             "adaptive steps with rtol/atol.")
+        h = _check_step(h, t0, t_end)
+    if h is None or t_eval is not None or events is not None or dense_output:
+        if checkpoint is not None or resume is not None:
+            raise ValueError("`checkpoint` and `resume` serve fixed-step runs without t_eval, events or dense_output; "
+                             "give `h` and drop those (or drop checkpoint/resume).")
+        return _marching(system, integrator, method_data, x0, t0, t_end, h, save_every, progress,
+                         _check_control(integrator, rtol, atol, first_step, max_step, t0, t_end) if h is None else None,
+                         t_eval, events, dense_output)
+    return _fixed(system, integrator, method_data, x0, t0, t_end, h, save_every, progress, checkpoint, resume)
+
+
+def _fixed(system, integrator, method_data, x0, t0, t_end, h, save_every, progress, checkpoint, resume):
+    """The fixed-step run on the grid ``t0 + k h`` (``driver.integrate``)."""
     n_steps = step_count(t0, t_end, h)
+    h = math.copysign(h, t_end - t0)
     h_last = (t_end - t0) - (n_steps - 1) * h
     save_every = _check_save_every(save_every, n_steps)
     rows = n_steps // save_every + 2
     _check_memory(rows)
-    out = _driver.Output(np.empty(rows), np.empty((rows, 3)), np.empty(rows), np.empty(rows),
-                         np.zeros(_layout.N_COUNTERS, dtype=np.int64), np.zeros(1))
-    method_data = integrator.lower(system)
+    out = _output(rows)
     work = np.zeros(getattr(method_data, "slots", 1) * _layout.WORK)
     state = np.concatenate([x0, np.zeros(_layout.N_STATE - 3)])
     grid = _driver.Grid(t0, h, n_steps, h_last, save_every)
@@ -138,19 +214,215 @@ def solve(system, x0, t_span, h, method="gonzalez", save_every=1, progress=None,
                 _write_checkpoint(checkpoint[0], run_id, k_begin, state, work, out)
                 checkpointed = k_begin
             if interrupted and going:
-                _save_interrupted(system, state, grid, out, k_begin)
+                _save_interrupted(system, state, grid.t0 + k_begin * grid.h, out)
+    failed = int(counters[_layout.FAILED_STEP])
+    return _solution(system, integrator, out, raised, t_from=t0 + (failed - 1) * h, h=h)
+
+
+def _marching(system, integrator, method_data, x0, t0, t_end, h, save_every, progress, control, t_eval, events,
+              dense_output):
+    """Adaptive steps (``control`` given) or fixed steps landing on stops (``adaptive.march``)."""
+    if save_every is not None and (isinstance(save_every, (bool, np.bool_)) or save_every != 1):
+        raise ValueError(f"`save_every` must be 1 or None with adaptive steps (h=None), t_eval, events or dense_output "
+                         f"(they keep every step, or the times of t_eval); got {save_every!r}.")
+    stops = np.array([t for t in (t_eval if t_eval is not None else []) if t != t0] or [t_end], dtype=np.float64)
+    if stops[-1] != t_end:
+        stops = np.append(stops, t_end)
+    save_all = events is not None or dense_output or (t_eval is None and save_every is not None)
+    if control is None:  # fixed steps from each stop on
+        control = _adaptive.Control(False, math.copysign(h, t_end - t0), 1.0, 1.0, math.inf, _layout.NO_ESTIMATE, 1.0,
+                                    float(integrator.order), save_all)
+    else:
+        first = _first_step(system, x0, t0, t_end, control) if control.h is None else control.h
+        control = control._replace(h=math.copysign(first, t_end - t0), save_all=save_all)
+    rows = FIRST_ROWS if save_all else len(stops) + 2
+    _check_memory(rows)
+    out = _output(rows)
+    work = np.zeros(getattr(method_data, "slots", 1) * _layout.WORK)
+    state = np.concatenate([x0, np.zeros(3), [np.nan, 0.0]])
+    clock = np.array([t0, control.h, 0.0, t0, 0.0, 0.0])
+    counters = out.counters
+    terminated = None
+    scanned = 0
+    model = system.model
+    with _user_errors.catching(counters) as raised, _interrupts() as interrupted:
+        budget = FIRST_CHUNK
+        while clock[_layout.C_STOP] < len(stops) and counters[_layout.STATUS] == _layout.OK:
+            if counters[_layout.ROWS] == len(out.t):
+                out = _grown(out)
+            started = time.perf_counter()
+            _adaptive.march(model, system.eps, system.hamiltonian, method_data, control, state, work, clock, stops,
+                            budget, out)
+            budget = _next_chunk(budget, time.perf_counter() - started)
+            if progress is not None:
+                progress(int(counters[_layout.STEPS]))
+            rows = int(counters[_layout.ROWS])
+            if events is not None and rows - scanned > 1:
+                terminated = events.scan(out.t, out.x, scanned, rows, lambda n: _step_interpolant(system, out, n),
+                                         lambda n, t: _land(system, method_data, out, n, t, state))
+                scanned = rows - 1
+                if terminated is not None:
+                    break
+            if interrupted and clock[_layout.C_STOP] < len(stops) and counters[_layout.STATUS] == _layout.OK:
+                _save_interrupted(system, state, clock[_layout.C_T], out)
+    n = int(counters[_layout.ROWS])
+    if terminated is not None:
+        row, t_event, x_event = terminated
+        counters[_layout.ROWS] = row + 1
+        _append(system, out, t_event, x_event)
+        counters[_layout.STATUS] = TERMINATED
+        n = row + 2
+    dense = Hermite(out.t[:n].copy(), out.x[:n].copy(), _fields(system, out.x[:n])) if dense_output else None
+    if t_eval is not None:
+        keep = np.isin(out.t[:n], t_eval)
+        if counters[_layout.STATUS] not in (_layout.OK, TERMINATED):
+            keep[n - 1] = True  # the last state reached
+        out = _driver.Output(*(a[:n][keep] for a in out[:4]), counters, out.residual)
+        counters[_layout.ROWS] = int(np.count_nonzero(keep))
+    t_events, x_events = events.arrays() if events is not None else (None, None)
+    last_good = float(out.t[int(counters[_layout.ROWS]) - 1]) if counters[_layout.STATUS] < 0 else 0.0
+    return _solution(system, integrator, out, raised, t_from=last_good, h=float(clock[_layout.C_H]),
+                     sol=dense, t_events=t_events, x_events=x_events)
+
+
+def _solution(system, integrator, out, raised, t_from, h, **extra):
+    counters = out.counters
     n = int(counters[_layout.ROWS])
     status = int(counters[_layout.STATUS])
     failed = int(counters[_layout.FAILED_STEP]) if status < 0 else None
     what = _raised_message(system, out.x[n - 1], h, raised) if status == _layout.USER_RAISED else None
     return Solution(
         t=out.t[:n].copy(), x=out.x[:n].copy(), H=out.H[:n].copy(), S=out.S[:n].copy(),
-        success=status == 0, status=status,
-        message=_message(status, failed, n, t0, h, counters, out.residual[0], integrator, what),
+        success=status in (0, TERMINATED), status=status,
+        message=_message(status, failed, out.t[:n], t_from, h, counters, out.residual[0], integrator, what),
         failed_step=failed, n_steps=int(counters[_layout.STEPS]),
         n_newton=int(counters[_layout.NEWTON_ITERATIONS]), nfev=int(counters[_layout.FIELD_EVALUATIONS]),
-        method=integrator,
+        method=integrator, n_rejected=int(counters[_layout.REJECTED]), **extra,
     )
+
+
+def _output(rows):
+    return _driver.Output(np.empty(rows), np.empty((rows, 3)), np.empty(rows), np.empty(rows),
+                          np.zeros(_layout.N_COUNTERS, dtype=np.int64), np.zeros(1))
+
+
+def _grown(out):
+    """``out`` with twice the rows (the rows written so far copied; the same counters array)."""
+    rows = len(out.t)
+    _check_memory(2 * rows)
+    bigger = _output(2 * rows)
+    for old, new in zip(out[:4], bigger[:4]):
+        new[:rows] = old
+    return bigger._replace(counters=out.counters, residual=out.residual)
+
+
+def _append(system, out, t, x):
+    row = int(out.counters[_layout.ROWS])
+    if row == len(out.t):
+        raise AssertionError("no row left for the event state")  # _marching keeps one: rows are cut first
+    out.t[row], out.x[row], out.H[row], out.S[row] = t, x, system.H(x), system.S(x)
+    out.counters[_layout.ROWS] = row + 1
+
+
+def _fields(system, x):
+    return np.asarray(system.xi(x), dtype=np.float64).reshape(-1, 3)
+
+
+def _step_interpolant(system, out, n):
+    """The cubic Hermite interpolant on the step from row ``n`` to row ``n + 1``."""
+    x = out.x[n:n + 2]
+    return Hermite(out.t[n:n + 2], x, _fields(system, x)).step(0)
+
+
+def _land(system, method_data, out, n, t, run_state):
+    """The state one step of the method from row ``n`` lands on at ``t`` (None if that step fails)."""
+    if t == out.t[n]:
+        return out.x[n].copy()
+    one = _output(2)
+    state = np.concatenate([out.x[n], np.zeros(3), [run_state[_layout.STATE_ANCHOR], 0.0]])
+    control = _adaptive.Control(False, t - out.t[n], 1.0, 1.0, math.inf, _layout.NO_ESTIMATE, 1.0, 1.0, False)
+    clock = np.array([out.t[n], 0.0, 0.0, out.t[n], 0.0, 0.0])
+    work = np.zeros(getattr(method_data, "slots", 1) * _layout.WORK)
+    _adaptive.march(system.model, system.eps, system.hamiltonian, method_data, control, state, work, clock,
+                    np.array([t]), 4, one)
+    if one.counters[_layout.STATUS] != _layout.OK or one.counters[_layout.ROWS] != 2:
+        return None
+    return one.x[1].copy()
+
+
+def _reversible(method_data):
+    """Backward steps are the same formulas with ``h < 0``: RK4, the pairs, the discrete-gradient family.
+    Projections and the compositions' S safeguard assume S falls along the step."""
+    if isinstance(method_data, _layout.EmbeddedPairStep):
+        return method_data.projection == _layout.NO_PROJECTION
+    return isinstance(method_data, (_layout.RungeKutta4, _layout.DiscreteGradientStep))
+
+
+def _with_args(system, args):
+    values = _validate.reals("args", args)
+    if values.shape != system.params.shape:
+        raise ValueError(f"`args` must have {system.params.size} values, as the system's params; got {values.size}: "
+                         f"{values.tolist()}.")
+    return system.with_effects(params=values)
+
+
+def _check_t_eval(t_eval, t0, t_end):
+    values = _validate.reals("t_eval", t_eval)
+    if values.size == 0:
+        raise ValueError("`t_eval` must hold at least one time; got an empty sequence.")
+    lo, hi = min(t0, t_end), max(t0, t_end)
+    outside = values[(values < lo) | (values > hi)]
+    if outside.size:
+        raise ValueError(f"`t_eval` must lie within t_span = ({t0!r}, {t_end!r}); got {outside[0]!r}.")
+    steps = np.diff(values) * math.copysign(1.0, t_end - t0)
+    if np.any(steps <= 0):
+        k = int(np.argmax(steps <= 0))
+        order = "increasing" if t_end > t0 else "decreasing (t_span runs backward)"
+        raise ValueError(f"`t_eval` must be strictly {order}; got {values[k]!r} then {values[k + 1]!r} at index {k}.")
+    _check_memory(values.size + 2)
+    return values
+
+
+def _check_control(integrator, rtol, atol, first_step, max_step, t0, t_end):
+    """The controller's settings, validated; the first step is chosen by ``_first_step`` when not given."""
+    rtol = RTOL if rtol is None else _validate.real("rtol", rtol)
+    atol = ATOL if atol is None else _validate.real("atol", atol)
+    if not (math.isfinite(rtol) and rtol >= 100 * np.finfo(float).eps):
+        raise ValueError(f"`rtol` must be finite and >= 100 eps = {100 * np.finfo(float).eps:.3g}; got {rtol!r}.")
+    if not (math.isfinite(atol) and atol >= 0.0):
+        raise ValueError(f"`atol` must be finite and >= 0; got {atol!r}.")
+    span = abs(t_end - t0)
+    max_step = math.inf if max_step is None else _validate.real("max_step", max_step)
+    if not max_step > 0.0 or math.isnan(max_step):
+        raise ValueError(f"`max_step` must be > 0; got {max_step!r}.")
+    if first_step is not None:
+        first_step = _validate.real("first_step", first_step)
+        if not (math.isfinite(first_step) and 0.0 < first_step <= span):
+            raise ValueError(f"`first_step` must be > 0 and at most |t_end - t0| = {span!r}; got {first_step!r}.")
+        _check_step(first_step, t0, t_end)
+    estimator, error_order = integrator.error_estimate()
+    return _adaptive.Control(True, first_step, rtol, atol, max_step, estimator, float(error_order),
+                             float(integrator.order), True)
+
+
+def _first_step(system, x0, t0, t_end, control):
+    """scipy's rule (Hairer, Norsett, Wanner, *Solving ODEs I*, section II.4): from the sizes of x0, xi(x0)
+    and a difference quotient of xi, a step whose Euler error is about the tolerance."""
+    span = abs(t_end - t0)
+    weight = control.atol + control.rtol * np.abs(x0)
+    f0 = _fields(system, x0)[0]
+    d0 = np.sqrt(np.mean((x0 / weight) ** 2))
+    d1 = np.sqrt(np.mean((f0 / weight) ** 2))
+    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+    h0 = min(h0, span)
+    x1 = x0 + math.copysign(h0, t_end - t0) * f0
+    f1 = _fields(system, x1)[0]
+    d2 = np.sqrt(np.mean(((f1 - f0) / weight) ** 2)) / h0 if np.all(np.isfinite(f1)) else np.inf
+    k = control.error_order + 1.0
+    h1 = max(1e-6, h0 * 1e-3) if d1 <= 1e-15 and d2 <= 1e-15 else (0.01 / max(d1, d2)) ** (1.0 / k)
+    h = min(100 * h0, h1, span, control.h_max)
+    resolution = 16 * np.finfo(float).eps * max(abs(t0), abs(t_end))
+    return math.copysign(max(h, resolution), t_end - t0)
 
 
 def _check_checkpoint(checkpoint):
@@ -229,11 +501,10 @@ def _interrupts():
         signal.signal(signal.SIGINT, previous)
 
 
-def _save_interrupted(system, state, grid, out, k_done):
-    """Stop after ``k_done`` steps: the state reached is saved as the last row and the run marked interrupted."""
+def _save_interrupted(system, state, t, out):
+    """Stop at time ``t``: the state reached is saved as the last row and the run marked interrupted."""
     counters = out.counters
     row = int(counters[_layout.ROWS])
-    t = grid.t0 + k_done * grid.h
     if out.t[row - 1] != t:
         x = state[_layout.STATE_X:_layout.STATE_X + 3].copy()
         out.t[row], out.x[row], out.H[row], out.S[row] = t, x, system.H(x), state[_layout.STATE_S]
@@ -268,17 +539,21 @@ def _raised_message(system, x, h, raised):
 
 def step_count(t0, t_end, h):
     """Number of fixed steps ``solve`` takes from ``t0`` to ``t_end`` (the last one shortened to land on it)."""
-    return max(1, math.ceil((t_end - t0) / h * (1.0 - 4.0 * np.finfo(float).eps)))
+    return max(1, math.ceil(abs((t_end - t0) / h) * (1.0 - 4.0 * np.finfo(float).eps)))
 
 
-def _message(status, failed, rows, t0, h, counters, residual, integrator, what=None):
+def _message(status, failed, t, t_from, h, counters, residual, integrator, what=None):
+    rows = len(t)
+    steps = int(counters[_layout.STEPS])
+    rejected = int(counters[_layout.REJECTED])
+    tried = f" ({rejected} rejected)" if rejected else ""
     if status == _layout.OK:
-        return f"The integration reached t_end in {int(counters[_layout.STEPS])} steps."
+        return f"The integration reached t_end in {steps} steps{tried}."
+    if status == TERMINATED:
+        return f"A termination event occurred at t = {t[-1]!r}, after {steps} steps{tried}."
     if status == _layout.INTERRUPTED:
-        steps = int(counters[_layout.STEPS])
-        return (f"Interrupted (SIGINT) after {steps} steps, at t = {t0 + steps * h:.6g}; the {rows} states saved "
+        return (f"Interrupted (SIGINT) after {steps} steps, at t = {t[-1]:.6g}; the {rows} states saved "
                 "so far are kept, the last one is the state reached.")
-    t_from = t0 + (failed - 1) * h
     what = what or _FAILURES[status]
     culprit = _layout.FUNCTION_NAMES[int(counters[_layout.CULPRIT])]
     if status == _layout.NON_FINITE and culprit:
@@ -316,8 +591,8 @@ def _check_span(t_span):
     t0, t_end = (_validate.real("t_span", t) for t in t_span)
     if not (math.isfinite(t0) and math.isfinite(t_end)):
         raise ValueError(f"`t_span` must be finite; got {t_span!r}.")
-    if not t_end > t0:
-        raise ValueError(f"`t_span` must satisfy t_end > t0 (fixed forward steps); got {t_span!r}.")
+    if t_end == t0:
+        raise ValueError(f"`t_span` must satisfy t_end != t0; got {t_span!r}.")
     return t0, t_end
 
 
@@ -325,7 +600,7 @@ def _check_step(h, t0, t_end):
     h = _validate.real("h", h)
     if not (math.isfinite(h) and h > 0.0):
         raise ValueError(f"`h` must be finite and > 0; got {h!r}.")
-    steps = (t_end - t0) / h
+    steps = abs(t_end - t0) / h
     if not steps <= MAX_STEPS:
         raise ValueError(f"`h` = {h!r} needs {steps:.3g} steps over t_span = ({t0!r}, {t_end!r}); at most 2**52 are "
                          "allowed. Use a larger `h` or a shorter span.")

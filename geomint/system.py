@@ -182,15 +182,27 @@ class MetriplecticSystem:
         """A copy of the parameter vector."""
         return self._params.copy()
 
-    def with_effects(self, *, hamiltonian=None, eps=None):
-        """The same system with the Hamiltonian part switched on/off and/or another eps.
+    def with_effects(self, *, hamiltonian=None, eps=None, params=None):
+        """The same system with the Hamiltonian part switched on/off, another eps and/or other params.
 
         ``hamiltonian=False`` leaves the gradient system ``dx/dt = eps xi_g``
         (its kernels never call ``J``); ``eps=0`` leaves the Hamiltonian system
-        (its fields never call ``grad_S``).
+        (its fields never call ``grad_S``).  ``params`` (as many numbers as the
+        system has) is checked as at construction: shapes, and that S is still a
+        Casimir of the Poisson tensor.
         """
         other = object.__new__(MetriplecticSystem)
         other.__dict__.update(self.__dict__)
+        if params is not None:
+            values = _validate.reals("params", params)
+            if values.shape != self._params.shape:
+                raise ValueError(f"`params` must have {self._params.size} values, as the system's; got "
+                                 f"{values.size}: {values.tolist()}.")
+            other._params = values
+            other.__dict__.pop("_model", None)
+            _check_shapes(other.functions, values)
+            with np.errstate(all="ignore"):
+                _check_structure(other)
         if hamiltonian is not None:
             if not isinstance(hamiltonian, (bool, np.bool_)):
                 raise TypeError(f"`hamiltonian` must be True or False; got {hamiltonian!r}.")

@@ -48,7 +48,7 @@ from .layout import (
     PROJECTION_FAILED, R_COEFF_AT, R_COEFF_COUNT, R_COMPENSATED, R_DAMPED, R_FLOW, R_KIND, R_LEAF, R_MAX_ITER, ROW,
     SYMMETRIC, UNKNOWN, WORK, StepResult,
 )
-from .projection import project_both, project_energy, rise_tolerance
+from .projection import project_both, project_energy, project_step, rise_tolerance
 from .steps import EPS, _kept, advance, discrete_gradient_step, rk4_step
 from .vec3 import ZERO, add, as_vector, axpy, dot, is_finite, load, norm_inf, sub
 
@@ -165,19 +165,6 @@ def _symmetric_projection(coeffs, iopts, model, eps, hamiltonian, buf, x, target
 
 
 @njit(error_model="numpy")
-def _on_level(model, buf, y, H_y, S_y, anchor, S_x):
-    """``y`` is on ``H = anchor`` as a projection must leave it (64 ulp of the terms of H) and S has
-    not risen beyond round-off (False where H or S is not known, as after an RK4 step)."""
-    if not (np.isfinite(H_y) and np.isfinite(S_y)):
-        return False
-    load(buf, y)
-    grad_h = as_vector(model.grad_H(buf, model.params))
-    grad_s = as_vector(model.grad_S(buf, model.params))
-    return (_kept(anchor, H_y, term_scale(anchor, H_y, grad_h, y, origin_terms(model.origin, 0, y)), 64.0, 0.0)
-            and S_y - S_x <= rise_tolerance(S_x, S_y, grad_s, y, origin_terms(model.origin, 4, y)))
-
-
-@njit(error_model="numpy")
 def _pull_back(model, buf, y, H_y, S_y, anchor, S_limit, max_iter):
     """``y`` moved along grad H back onto ``H = anchor`` when it strayed beyond ``ANCHOR_ULPS`` of the
     terms of H (see the module docstring), keeping S at most ``S_limit`` (S at the start of the full
@@ -228,24 +215,11 @@ def composed_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, 
         y, comp_y, H_y, S_y = r.x, r.comp, r.H, r.S
     max_iter = iopts[P_MAX_ITER]
     if projection != NO_PROJECTION:
-        y_step, H_step, S_step = y, H_y, S_y
-        y, H_y, it = project_energy(model, buf, y, H_anchor, max_iter)
-        evaluations += it + 2
+        y, H_y, S_y, projected, ev = project_step(model, buf, y, H_y, S_y, H_anchor, S_x, max_iter)
+        evaluations += ev
         comp_y = ZERO
-        grad_h = as_vector(model.grad_H(load(buf, y), model.params))
-        if not _kept(H_anchor, H_y, term_scale(H_anchor, H_y, grad_h, y, origin_terms(model.origin, 0, y)), 64.0, 0.0):
+        if not projected:
             return StepResult(y, comp_y, H_y, S_y, PROJECTION_FAILED, iterations, evaluations, residual, UNKNOWN), rises, fired
-        S_y = model.S(load(buf, y), model.params)
-        grad_s = as_vector(model.grad_S(buf, model.params))
-        if S_y - S_x > rise_tolerance(S_x, S_y, grad_s, y, origin_terms(model.origin, 4, y)):
-            y, H_y, S_y, converged, it = project_both(model, buf, y, H_anchor, S_x, max_iter)
-            evaluations += it + 1
-            if not converged and _on_level(model, buf, y_step, H_step, S_step, H_anchor, S_x):
-                # near an equilibrium of the gradient part grad S || grad H and the two conditions are
-                # nearly one; the step's own state (an energy-exact base) already meets both
-                y, H_y, S_y, converged = y_step, H_step, S_step, True
-            if not converged:
-                return StepResult(y, comp_y, H_y, S_y, PROJECTION_FAILED, iterations, evaluations, residual, UNKNOWN), rises, fired
     elif iopts[P_ANCHOR]:
         z, H_y, S_y, ev = _pull_back(model, buf, y, H_y, S_y, H_anchor, max(S_x, S_y), max_iter)
         evaluations += ev

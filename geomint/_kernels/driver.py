@@ -2,7 +2,7 @@
 
 ``step(method, ...)`` picks the step by the *type* of ``method``
 (``layout.RungeKutta4``, ``layout.DiscreteGradientStep``,
-``layout.ComposedStep``) when ``integrate`` is compiled, so a run compiles only
+``layout.ComposedStep``, ``layout.EmbeddedPairStep``) when ``integrate`` is compiled, so a run compiles only
 what it uses; under ``NUMBA_DISABLE_JIT=1`` the same choice is made in Python.
 """
 
@@ -17,8 +17,9 @@ from .composition import composed_step
 from .field import non_finite_culprit
 from .layout import (
     CULPRIT, FAILED_STEP, FIELD_EVALUATIONS, NEWTON_ITERATIONS, NON_FINITE, OK, RAISED, ROWS, STATE_ANCHOR, STATE_COMP,
-    STATE_S, STATE_X, STATUS, STEPS, USER_RAISED, ComposedStep, DiscreteGradientStep, RungeKutta4,
+    STATE_S, STATE_X, STATUS, STEPS, USER_RAISED, ComposedStep, DiscreteGradientStep, EmbeddedPairStep, RungeKutta4,
 )
+from .pairs import pair_step
 from .steps import discrete_gradient_step, rk4_step
 from .vec3 import flush_tiny, is_finite, load, same
 
@@ -45,7 +46,13 @@ def _composed(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, w
     return composed_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work, 0.0)[0]
 
 
-_STEPS = {RungeKutta4: _rk4, DiscreteGradientStep: _discrete_gradient, ComposedStep: _composed}
+@njit(error_model="numpy")
+def _pair(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
+    return pair_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work, False)[0]
+
+
+_STEPS = {RungeKutta4: _rk4, DiscreteGradientStep: _discrete_gradient, ComposedStep: _composed,
+          EmbeddedPairStep: _pair}
 
 
 def step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):

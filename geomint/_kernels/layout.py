@@ -18,6 +18,8 @@ NEWTON_FAILED = -1
 NON_FINITE = -2
 PROJECTION_FAILED = -3
 USER_RAISED = -4  # a user function raised inside the step (``geomint._user_errors``)
+# -5 is an ensemble's invalid start (``geomint.ensemble``)
+STEP_TOO_SMALL = -6  # an adaptive run needed a step below the resolution of its time
 
 # -- which user function produced a non-finite value (counters[CULPRIT]) ------------------------
 UNKNOWN = 0
@@ -37,7 +39,8 @@ FAILED_STEP = 4
 ROWS = 5
 CULPRIT = 6
 RAISED = 7  # exceptions user functions raised, counted by ``geomint._user_errors``
-N_COUNTERS = 8
+REJECTED = 8  # attempted steps an adaptive run rejected (error above tolerance, or a failed attempt retried)
+N_COUNTERS = 9
 
 # -- run state (float64 array carried from chunk to chunk) -------------------------------------
 #    x (3), its compensation (3), the energy anchor H(x0), S(x_n)
@@ -46,6 +49,23 @@ STATE_COMP = 3
 STATE_ANCHOR = 6
 STATE_S = 7
 N_STATE = 8
+
+# -- clock of an adaptive or stop-landing run (float64 array carried from chunk to chunk, ``adaptive.march``)
+#    the time of the state, the next step to try (signed), the last accepted error norm (PI controller),
+#    fixed steps: the time of the last landing and the steps taken since; the index of the next stop
+C_T = 0
+C_H = 1
+C_ERROR = 2
+C_BASE = 3
+C_COUNT = 4
+C_STOP = 5
+N_CLOCK = 6
+
+# -- error estimators of an adaptive run (``adaptive.Control.estimator``)
+NO_ESTIMATE = 0  # fixed steps that land on the stops
+EMBEDDED = 1  # the method's own embedded pair (``EmbeddedPairStep``)
+RK4_REFERENCE = 2  # a discrete-gradient step against the explicit RK4 step from the same state
+DOUBLING = 3  # one step of h against two of h/2 (Richardson), for any method
 
 # -- per-slot workspace of an implicit step (float64), one slot per sub-step position --------------
 #    the last three accepted increments (predictor), the step they were taken with, how many are
@@ -115,6 +135,12 @@ ItohAbeKind = namedtuple("ItohAbeKind", "code")
 SymmetrizedItohAbeKind = namedtuple("SymmetrizedItohAbeKind", "code")
 AVFKind = namedtuple("AVFKind", "code")
 KIND_MARKERS = {GONZALEZ: GonzalezKind, ITOH_ABE: ItohAbeKind, SYMMETRIZED_ITOH_ABE: SymmetrizedItohAbeKind, AVF: AVFKind}
+
+#: an explicit Runge-Kutta pair (``a`` strictly lower triangular, ``b`` the propagating weights; the nodes
+#: are not needed, the field is autonomous) with its error weights ``e`` (over the stages and xi at the new
+#: state, as in FSAL pairs) and, for Dormand-Prince 8(5,3), ``e_low`` (zero-size otherwise);
+#: ``projection`` is ``NO_PROJECTION`` or ``STANDARD``; the stages live in ``slots`` workspace slots
+EmbeddedPairStep = namedtuple("EmbeddedPairStep", "a b e e_low projection max_iter slots")
 
 #: splittings, compositions and projections: a flat program (``composition``)
 ComposedStep = namedtuple("ComposedStep", "coeffs iopts slots")

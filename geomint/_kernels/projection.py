@@ -18,6 +18,8 @@ gradient part, where the feasible set shrinks to the point ``x_n``).
 import numpy as np
 from numba import njit
 
+from .discrete_gradient import origin_terms, term_scale
+from .steps import _kept
 from .vec3 import as_vector, axpy, dot, load, norm_inf
 
 EPS = np.finfo(np.float64).eps
@@ -99,3 +101,45 @@ def project_both(model, buf, x, H_target, S_target, max_iter):
             return y, H_y, S_y, True, iteration  # converged, or stopped shrinking at the round-off floor
         previous = update
     return y, H_y, S_y, False, max_iter
+
+
+@njit(error_model="numpy")
+def on_level(model, buf, y, H_y, S_y, anchor, S_x):
+    """``y`` is on ``H = anchor`` as a projection must leave it (64 ulp of the terms of H) and S has
+    not risen beyond round-off (False where H or S is not known, as after an RK4 step)."""
+    if not (np.isfinite(H_y) and np.isfinite(S_y)):
+        return False
+    load(buf, y)
+    grad_h = as_vector(model.grad_H(buf, model.params))
+    grad_s = as_vector(model.grad_S(buf, model.params))
+    return (_kept(anchor, H_y, term_scale(anchor, H_y, grad_h, y, origin_terms(model.origin, 0, y)), 64.0, 0.0)
+            and S_y - S_x <= rise_tolerance(S_x, S_y, grad_s, y, origin_terms(model.origin, 4, y)))
+
+
+@njit(error_model="numpy")
+def project_step(model, buf, y, H_y, S_y, anchor, S_x, max_iter):
+    """A step's result ``y`` (with ``H(y)``, ``S(y)`` or NaN) moved onto ``{H = anchor, S <= S_x}``.
+
+    ``project_energy`` first; where that leaves S above ``S_x`` beyond round-off,
+    ``project_both``.  Near an equilibrium of the gradient part (grad S || grad H)
+    the 2x2 system is nearly singular; there the step's own state is kept if it
+    already meets both conditions (an energy-exact base).  Returns
+    ``(y, H(y), S(y), projected, evaluations)``; ``projected`` is False when no
+    such point was found.
+    """
+    y_step, H_step, S_step = y, H_y, S_y
+    y, H_y, it = project_energy(model, buf, y, anchor, max_iter)
+    evaluations = it + 2
+    grad_h = as_vector(model.grad_H(load(buf, y), model.params))
+    if not _kept(anchor, H_y, term_scale(anchor, H_y, grad_h, y, origin_terms(model.origin, 0, y)), 64.0, 0.0):
+        return y, H_y, S_y, False, evaluations
+    S_y = model.S(load(buf, y), model.params)
+    grad_s = as_vector(model.grad_S(buf, model.params))
+    if S_y - S_x > rise_tolerance(S_x, S_y, grad_s, y, origin_terms(model.origin, 4, y)):
+        y, H_y, S_y, converged, it = project_both(model, buf, y, anchor, S_x, max_iter)
+        evaluations += it + 1
+        if not converged and on_level(model, buf, y_step, H_step, S_step, anchor, S_x):
+            y, H_y, S_y, converged = y_step, H_step, S_step, True
+        if not converged:
+            return y, H_y, S_y, False, evaluations
+    return y, H_y, S_y, True, evaluations

@@ -302,6 +302,17 @@ def _remember(work, dx, h):
 
 
 @njit(error_model="numpy")
+def seed_predictor(work, dx, h):
+    """Make the slot's next attempt with step ``h`` start from the increment ``dx`` (an adaptive run seeds
+    the explicit RK4 increment its error estimate computes: O(h^3) from the root).  Used only while
+    the slot holds a Jacobian; otherwise the step takes a fresh one and its own start."""
+    for k in range(3):
+        work[W_DX1 + k] = dx[k]
+    work[W_HISTORY] = 1.0
+    work[W_H] = h
+
+
+@njit(error_model="numpy")
 def discrete_gradient_step(kind, max_iter, damped, compensated, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x,
                            h, work):
     """One metriplectic discrete-gradient step ``x' = x + h F(x, x')`` (``discrete_field``), solved to round-off.

@@ -10,14 +10,15 @@ from .discrete_gradient import AVF, DampedGonzalez, DiscreteGradient, Gonzalez, 
 from .exact_flows import OscillatorRotation, RigidBodyFlow, RotorSplitting
 from .program import S_rise_statistics
 from .projection import Projected
-from .runge_kutta import RK4
+from .runge_kutta import RK4, BogackiShampine32, DormandPrince54, DormandPrince853, EmbeddedRungeKutta
 from .splitting import Lie, Strang
 
 #: short name -> class, for ``solve(method="gonzalez")``, scenes and the command line
 INTEGRATORS = {
     cls.name: cls
     for cls in (
-        Gonzalez, ItohAbe, SymmetrizedItohAbe, AVF, DampedGonzalez, RK4, Lie, Strang, Projected,
+        Gonzalez, ItohAbe, SymmetrizedItohAbe, AVF, DampedGonzalez, RK4, BogackiShampine32, DormandPrince54,
+        DormandPrince853, Lie, Strang, Projected,
         Yoshida4, Suzuki4, Yoshida6, KahanLi6, SuzukiUmeno8, KahanLi8,
         RigidBodyFlow, RotorSplitting, OscillatorRotation,
     )
@@ -34,7 +35,7 @@ def resolve(method):
 
 
 __all__ = [
-    "AVF", "Composition", "DampedGonzalez", "DiscreteGradient", "Gonzalez", "INTEGRATORS", "Integrator", "ItohAbe",
+    "AVF", "BogackiShampine32", "Composition", "DampedGonzalez", "DiscreteGradient", "DormandPrince54", "DormandPrince853", "EmbeddedRungeKutta", "Gonzalez", "INTEGRATORS", "Integrator", "ItohAbe",
     "KahanLi6", "KahanLi8", "Lie", "OscillatorRotation", "Projected", "RK4", "RigidBodyFlow", "RotorSplitting",
     "SCHEMES", "S_rise_statistics", "Strang", "Suzuki4", "SuzukiUmeno8", "SymmetrizedItohAbe", "Traits", "Yoshida4",
     "Yoshida6", "resolve",

@@ -3,6 +3,8 @@
 from dataclasses import dataclass
 from typing import ClassVar
 
+from .._kernels import layout
+
 
 @dataclass(frozen=True)
 class Traits:
@@ -65,6 +67,12 @@ class Integrator:
         """``(leaf code, discrete-gradient kind, max_iter, damped, compensated, coefficients)``: this method
         as one stage of a composed program (``program.Program``)."""
         raise TypeError(f"{self!r} cannot be a stage of a splitting or composition: use it on the whole field.")
+
+    def error_estimate(self):
+        """``(estimator, order of the estimate)`` for adaptive steps (``geomint._kernels.adaptive``):
+        step doubling (``layout.DOUBLING``) at the method's order, unless the method has a cheaper
+        estimate of its own."""
+        return layout.DOUBLING, self.order
 
     def lower(self, system):
         """The method data (a named tuple of ``geomint._kernels.layout``) for a run of ``system``.

@@ -54,6 +54,11 @@ class DiscreteGradient(Integrator):
     def stage(self, system):
         return layout.LEAF_DISCRETE_GRADIENT, self.kind, self.max_newton_iter, self.damped, self.compensated, self._coeffs()
 
+    def error_estimate(self):
+        """Against the explicit RK4 step from the same state (``layout.RK4_REFERENCE``); damped methods,
+        made for stiff relaxation where an explicit reference is unstable, by step doubling."""
+        return (layout.DOUBLING if self.damped else layout.RK4_REFERENCE), self.order
+
     def lower(self, system):
         return layout.DiscreteGradientStep(
             layout.KIND_MARKERS[self.kind](self.kind), self.max_newton_iter, self.damped, self.compensated, self._coeffs()

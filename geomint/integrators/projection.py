@@ -6,7 +6,7 @@ from typing import ClassVar
 from .._kernels import layout
 from .base import Integrator, Traits
 from .program import Program, Programmed, program_of
-from .runge_kutta import RK4
+from .runge_kutta import RK4, EmbeddedRungeKutta
 
 
 @dataclass(frozen=True)
@@ -81,4 +81,16 @@ class Projected(Programmed, Integrator):
 
     def sub_methods(self):
         return (self.method,)
+
+    def error_estimate(self):
+        """An embedded pair's own estimate (the error of the explicit step the projection then moves by
+        about as much); step doubling for any other method."""
+        if isinstance(self.method, EmbeddedRungeKutta):
+            return self.method.error_estimate()
+        return super().error_estimate()
+
+    def lower(self, system):
+        if isinstance(self.method, EmbeddedRungeKutta):
+            return self.method.lower(system, projection=layout.STANDARD, max_iter=self.max_iter)
+        return super().lower(system)
 

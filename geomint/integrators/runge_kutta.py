@@ -1,9 +1,13 @@
-"""Generic Runge-Kutta baseline."""
+"""Generic Runge-Kutta methods: the classical RK4 baseline and explicit embedded pairs."""
 
+import math
 from dataclasses import dataclass
 from typing import ClassVar
 
+import numpy as np
+
 from .._kernels import layout
+from . import tableaux
 from .base import Integrator, Traits
 
 
@@ -24,3 +28,67 @@ class RK4(Integrator):
 
     def lower(self, system):
         return layout.RungeKutta4(4)
+
+
+@dataclass(frozen=True)
+class EmbeddedRungeKutta(Integrator):
+    """An explicit Runge-Kutta pair: a step of order ``order`` and an error estimate of order ``error_order``.
+
+    Structure-blind on its own (H drifts, S may rise), as scipy's ``RK23``,
+    ``RK45`` and ``DOP853`` are; ``Projected(pair)`` makes it exact in H and
+    monotone in S at every step while the pair's estimate steers the step size
+    (``solve(..., h=None, rtol=..., atol=...)``).  With a fixed ``h`` it is the
+    plain higher-order step (the estimate is not computed).  Tableaux:
+    ``geomint.integrators.tableaux``.
+    """
+
+    tableau: ClassVar[tuple]
+
+    @property
+    def traits(self):
+        return Traits(order=self.tableau[5], energy_exact=False, dissipative=False, symmetric=False, implicit=False)
+
+    @property
+    def error_order(self):
+        """Order of the embedded solution the error estimate measures."""
+        return self.tableau[6]
+
+    def error_estimate(self):
+        return layout.EMBEDDED, self.error_order
+
+    def lower(self, system, projection=layout.NO_PROJECTION, max_iter=50):
+        a_rows, b, _, e, e_low = self.tableau[:5]
+        s = len(b)
+        a = np.zeros((s, s))
+        for i, row in enumerate(a_rows):
+            a[i, :len(row)] = row
+        slots = math.ceil(3 * (s + 1) / layout.WORK)
+        return layout.EmbeddedPairStep(a, np.array(b, dtype=np.float64), np.array(e, dtype=np.float64),
+                                       np.array(e_low, dtype=np.float64), projection, max_iter, slots)
+
+
+@dataclass(frozen=True)
+class BogackiShampine32(EmbeddedRungeKutta):
+    """Bogacki-Shampine 3(2), scipy's ``RK23``: order 3, 3 stages plus the field at the new state.
+    Reference: Bogacki & Shampine, Appl. Math. Lett. 2 (1989) 321."""
+
+    name: ClassVar[str] = "rk23"
+    tableau: ClassVar[tuple] = tableaux.BOGACKI_SHAMPINE_32
+
+
+@dataclass(frozen=True)
+class DormandPrince54(EmbeddedRungeKutta):
+    """Dormand-Prince 5(4), scipy's ``RK45``: order 5, 6 stages plus the field at the new state.
+    Reference: Dormand & Prince, J. Comput. Appl. Math. 6 (1980) 19."""
+
+    name: ClassVar[str] = "rk45"
+    tableau: ClassVar[tuple] = tableaux.DORMAND_PRINCE_54
+
+
+@dataclass(frozen=True)
+class DormandPrince853(EmbeddedRungeKutta):
+    """Dormand-Prince 8(5,3), scipy's ``DOP853``: order 8, 12 stages, a 5th- and a 3rd-order estimate
+    blended as in Hairer's code.  Reference: Hairer, Norsett, Wanner, *Solving ODEs I*, section II.10."""
+
+    name: ClassVar[str] = "dop853"
+    tableau: ClassVar[tuple] = tableaux.DORMAND_PRINCE_853

@@ -1,0 +1,76 @@
+"""Explicit embedded Runge-Kutta pairs, alone or projected onto ``{H = H0, S <= S_n}``.
+
+``pair_step`` takes one step of a ``layout.EmbeddedPairStep`` (tableaux in
+``geomint.integrators.tableaux``) and returns the error estimate beside the
+step: ``e = h [K; xi(x')]^T e_w`` and, for Dormand-Prince 8(5,3), the
+lower-order ``e_low``; ``adaptive.error_norm`` turns them into the controller's
+norm.  The error is that of the explicit step; the projection that follows
+moves by the size of that error (Hairer, Lubich, Wanner, *Geometric Numerical
+Integration*, section IV.4), so the estimate also bounds the projected step's
+error to leading order.  The stage values are kept in the trajectory's
+workspace (``work``), so threads of an ensemble share nothing.
+"""
+
+import numpy as np
+from numba import njit
+
+from .field import field
+from .layout import NO_PROJECTION, NON_FINITE, OK, PROJECTION_FAILED, UNKNOWN, StepResult
+from .projection import project_step
+from .steps import advance
+from .vec3 import ZERO, axpy, is_finite
+
+
+@njit(error_model="numpy")
+def _combine(k, weights, h, count):
+    """``h sum_j weights_j K_j`` over the first ``count`` rows of ``K`` (skipping zero weights)."""
+    total = ZERO
+    for j in range(count):
+        if weights[j] != 0.0:
+            total = axpy(h * weights[j], (k[j, 0], k[j, 1], k[j, 2]), total)
+    return total
+
+
+@njit(error_model="numpy")
+def pair_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work, estimate):
+    """One step; returns ``(StepResult, e, e_low)`` (``e``, ``e_low`` zero when ``estimate`` is False).
+
+    Stages ``K_i = xi(x + h sum_{j<i} a_ij K_j)``; ``x' = x + h K^T b`` by
+    compensated summation.  With ``estimate`` and a nonzero last error weight
+    the field at ``x'`` is evaluated for the estimate (one evaluation more).
+    With ``method.projection`` the state is then projected (``projection.project_step``).
+    """
+    a, b, e, e_low = method.a, method.b, method.e, method.e_low
+    s = b.shape[0]
+    k = work[: 3 * (s + 1)].reshape((s + 1, 3))
+    for i in range(s):
+        y = x
+        for j in range(i):
+            if a[i, j] != 0.0:
+                y = axpy(h * a[i, j], (k[j, 0], k[j, 1], k[j, 2]), y)
+        f = field(model, eps, hamiltonian, buf, y)
+        k[i, 0], k[i, 1], k[i, 2] = f
+    x_new, comp_new = advance(x, comp, _combine(k, b, h, s))
+    evaluations = s
+    error, error_low = ZERO, ZERO
+    if not is_finite(x_new):
+        return StepResult(x_new, comp_new, np.nan, np.nan, NON_FINITE, 0, evaluations, 0.0, UNKNOWN), error, error_low
+    if estimate:
+        rows = s
+        if e[s] != 0.0:
+            k[s, 0], k[s, 1], k[s, 2] = field(model, eps, hamiltonian, buf, x_new)
+            evaluations += 1
+            rows = s + 1
+        error = _combine(k, e, h, rows)
+        if e_low.shape[0] > 0:
+            error_low = _combine(k, e_low, h, rows)
+    H_new, S_new = np.nan, np.nan
+    if method.projection != NO_PROJECTION:
+        x_new, H_new, S_new, projected, more = project_step(model, buf, x_new, np.nan, np.nan, H_anchor, S_x,
+                                                            method.max_iter)
+        comp_new = ZERO
+        evaluations += more
+        if not projected:
+            return (StepResult(x_new, comp_new, H_new, S_new, PROJECTION_FAILED, 0, evaluations, 0.0, UNKNOWN),
+                    error, error_low)
+    return StepResult(x_new, comp_new, H_new, S_new, OK, 0, evaluations, 0.0, UNKNOWN), error, error_low

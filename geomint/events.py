@@ -1,0 +1,197 @@
+"""Events: functions ``g(t, x)`` whose zeros ``geomint.solve(..., events=...)`` locates, as in scipy.
+
+An event is any callable ``g(t, x) -> float`` with two optional attributes,
+read as ``scipy.integrate.solve_ivp`` reads them:
+
+* ``terminal``: ``True`` (or a positive integer ``n``) stops the run at the
+  first (``n``-th) zero; default ``False``;
+* ``direction``: ``> 0`` only zeros where g rises, ``< 0`` where it falls,
+  ``0`` (default) both.
+
+After every accepted step ``solve`` evaluates each event at the new state; a
+sign change over the step ``[t_n, t_{n+1}]`` is located by Brent's method, to
+a few ulps of ``t``, on ``g(s, y(s))`` with ``y(s)`` *a step of the method*
+from ``x_n`` landing on ``s``: the zero of the computed solution, as accurate
+as the method.  The state recorded at the event, ``x_events``, is that step's
+state, so it keeps H and S exactly as every step does.  (Where such a step
+fails, or does not show the sign change the accepted step showed, the cubic
+Hermite interpolant of the step, ``geomint.dense``, is used instead.)  A terminal event ends the run there, with ``status = 1``.
+
+Built-ins: ``relaxed`` (the field has become small: the state has relaxed
+onto an equilibrium of H = H0) and ``crossing`` (a function of the state
+crosses a value).
+"""
+
+import math
+import numbers
+
+import numpy as np
+from scipy.optimize import brentq
+
+from ._user_errors import UserFunctionError
+
+
+def relaxed(system, tol, *, terminal=True):
+    """The event ``|xi(x)|_2 - tol`` falling through zero: the state has relaxed to within ``tol`` (in field
+    speed) of an equilibrium.  Terminal by default: ``solve(..., events=relaxed(system, 1e-10))`` stops there.
+
+    Near a hyperbolic equilibrium ``|xi(x)|`` is proportional to the distance to it, so the event time
+    grows like ``log(1 / tol) / rate``.
+    """
+    tol = _positive("tol", tol)
+
+    def event(t, x):
+        return float(np.linalg.norm(system.xi(x))) - tol
+
+    event.terminal = terminal
+    event.direction = -1.0
+    event.__name__ = f"relaxed(tol={tol:g})"
+    return event
+
+
+def crossing(function, value=0.0, *, direction=0.0, terminal=False):
+    """The event ``function(x) - value``: a function of the state (``system.S``, ``lambda x: x[2]`` ...)
+    crossing ``value``; ``direction`` and ``terminal`` as above."""
+    if not callable(function):
+        raise TypeError(f"`function` must be callable as function(x); got {function!r}.")
+    value = _real("value", value)
+
+    def event(t, x):
+        return float(function(x)) - value
+
+    event.terminal = terminal
+    event.direction = _real("direction", direction)
+    event.__name__ = f"crossing({getattr(function, '__name__', 'function')}, {value!r})"
+    return event
+
+
+def _real(name, value):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+        raise ValueError(f"`{name}` must be a finite real number; got {value!r}.")
+    return float(value)
+
+
+def _positive(name, value):
+    value = _real(name, value)
+    if not value > 0.0:
+        raise ValueError(f"`{name}` must be > 0; got {value!r}.")
+    return value
+
+
+class Events:
+    """The events of one run, validated, with what has been found so far (``geomint.solve``'s helper).
+
+    ``events``: a callable or a sequence of callables (the ``events`` argument of ``solve``).
+    """
+
+    def __init__(self, events):
+        functions = [events] if callable(events) else events
+        if isinstance(functions, (str, bytes)) or not hasattr(functions, "__iter__"):
+            raise TypeError(f"`events` must be a callable g(t, x) or a sequence of them; got {events!r}.")
+        functions = list(functions)
+        self.functions, self.limits, self.directions = [], [], []
+        for k, g in enumerate(functions):
+            if not callable(g):
+                raise TypeError(f"`events` must be callables g(t, x); item {k} is {g!r}.")
+            terminal = getattr(g, "terminal", False)
+            if isinstance(terminal, (bool, np.bool_)):
+                limit = 1 if terminal else 0
+            elif isinstance(terminal, numbers.Integral) and terminal >= 1:
+                limit = int(terminal)
+            else:
+                raise ValueError(f"`events[{k}].terminal` must be True, False or an integer >= 1; got {terminal!r}.")
+            direction = getattr(g, "direction", 0.0)
+            if isinstance(direction, (bool, np.bool_)) or not isinstance(direction, numbers.Real) \
+                    or not math.isfinite(direction):
+                raise ValueError(f"`events[{k}].direction` must be a finite real number; got {direction!r}.")
+            self.functions.append(g)
+            self.limits.append(limit)
+            self.directions.append(float(direction))
+        self.t_events = [[] for _ in self.functions]
+        self.x_events = [[] for _ in self.functions]
+        self._counts = [0] * len(self.functions)
+        self._last = None
+
+    def _values(self, t, x):
+        values = np.empty(len(self.functions))
+        for k, g in enumerate(self.functions):
+            try:
+                values[k] = g(t, x)
+            except Exception as exc:
+                raise UserFunctionError(f"events[{k}] ({_name(g)})", np.asarray(x).tolist(), exc,
+                                        f"(t = {float(t)!r})") from exc
+            if not math.isfinite(values[k]):
+                raise ValueError(f"`events[{k}]` ({_name(g)}) returned {float(values[k])!r} at t = {float(t)!r}, "
+                                 f"x = {np.asarray(x).tolist()}; it must return a finite real number.")
+        return values
+
+    def scan(self, t, x, start, stop, interpolant, land):
+        """Look for zeros over the steps ending at rows ``start + 1 .. stop - 1`` of ``t``, ``x``.
+
+        ``interpolant(n)`` is the dense output on step ``n`` (a function of t); ``land(n, t_event)`` the
+        state a step of the method from row ``n`` lands on at ``t_event`` (or None).  Records every zero
+        found; returns ``(n, t_event, x_event)`` of the zero that ends the run (a terminal event's
+        last allowed occurrence), or None.
+        """
+        if not self.functions:
+            return None
+        if self._last is None:
+            self._last = self._values(t[start], x[start])
+        for n in range(start, stop - 1):
+            new = self._values(t[n + 1], x[n + 1])
+            old, self._last = self._last, new
+            up = (old <= 0) & (new >= 0)
+            down = (old >= 0) & (new <= 0)
+            hits = []
+            for k, direction in enumerate(self.directions):
+                wanted = (up[k] and direction > 0) or (down[k] and direction < 0) or ((up[k] or down[k]) and
+                                                                                     direction == 0)
+                if wanted and not (old[k] == 0 and new[k] == 0):
+                    hits.append((self._root(k, t[n], t[n + 1], old[k], new[k], interpolant(n),
+                                            lambda s, n=n: land(n, s)), k))
+            hits.sort(reverse=bool(t[n + 1] < t[n]))
+            for t_event, k in hits:
+                state = land(n, t_event)
+                if state is None:
+                    state = interpolant(n)(t_event)
+                self.t_events[k].append(t_event)
+                self.x_events[k].append(np.asarray(state, dtype=np.float64))
+                self._counts[k] += 1
+                if self.limits[k] and self._counts[k] >= self.limits[k]:
+                    return n, t_event, self.x_events[k][-1]
+        return None
+
+    def _root(self, k, t0, t1, g0, g1, u, land):
+        """The zero of event ``k`` on the step ``[t0, t1]`` (values ``g0``, ``g1`` at its ends).
+
+        Brent's method on ``g(s, y(s))``, ``y(s)`` one step of the method from the step's start landing
+        on ``s``: the zero of the computed solution, as accurate as the method (a cubic interpolant
+        would limit a high-order method).  Where such a step fails or the sign change is not seen
+        through it, on the interpolant ``u``."""
+        if g0 == 0.0:
+            return float(t0)
+        if g1 == 0.0:
+            return float(t1)
+        g = self.functions[k]
+        lo, hi = min(t0, t1), max(t0, t1)
+        tolerances = {"xtol": 4 * np.finfo(float).eps * max(abs(lo), abs(hi)), "rtol": 4 * np.finfo(float).eps}
+
+        def stepped(s):
+            y = land(s)
+            if y is None:
+                raise ArithmeticError
+            return float(g(s, y))
+
+        try:
+            return float(brentq(stepped, lo, hi, **tolerances))
+        except (ValueError, ArithmeticError):
+            return float(brentq(lambda s: float(g(s, u(s))), lo, hi, **tolerances))
+
+    def arrays(self):
+        """``(t_events, x_events)``: per event, an array of times and an ``(n, 3)`` array of states."""
+        return ([np.array(ts, dtype=np.float64) for ts in self.t_events],
+                [np.array(xs, dtype=np.float64).reshape(-1, 3) for xs in self.x_events])
+
+
+def _name(g):
+    return getattr(g, "__name__", type(g).__name__)
