@@ -358,8 +358,9 @@ def _collect(system, integrator, X0, t0, h, params, eps, arrays, reasons, raised
             what = (_raised_message(own, x[i, row_count[i] - 1], h, [raised_by.get(i)]) if own is not None else
                     f"a user function raised {raised_by.get(i)!r}")
         failed = int(counters[i, _layout.FAILED_STEP]) if status[i] < 0 else None
-        messages.append(_message(int(status[i]), failed, int(row_count[i]), t0, h, counters[i], residuals[i, 0],
-                                 integrator, what))
+        t_from = t0 + ((failed or 1) - 1) * h
+        messages.append(_message(int(status[i]), failed, t[i, :row_count[i]], t_from, h, counters[i],
+                                 residuals[i, 0], integrator, what))
     return Ensemble(
         t=t[:, :used], x=x[:, :used], H=H[:, :used], S=S[:, :used], rows=row_count, status=status,
         failed_step=np.where(status < 0, counters[:, _layout.FAILED_STEP], 0), messages=tuple(messages),

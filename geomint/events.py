@@ -26,8 +26,6 @@ import math
 import numbers
 
 import numpy as np
-from scipy.optimize import brentq
-
 from ._user_errors import UserFunctionError
 
 
@@ -172,6 +170,8 @@ class Events:
             return float(t0)
         if g1 == 0.0:
             return float(t1)
+        from scipy.optimize import brentq  # here: importing it costs ~0.5 s at ``import geomint``
+
         g = self.functions[k]
         lo, hi = min(t0, t1), max(t0, t1)
         tolerances = {"xtol": 4 * np.finfo(float).eps * max(abs(lo), abs(hi)), "rtol": 4 * np.finfo(float).eps}

@@ -203,6 +203,35 @@ def _geomint(args, cwd, env=None, prefix=()):
                           capture_output=True, text=True, timeout=600)
 
 
+#: ``geomint`` command lines run one after another in one process: argv[1] is a JSON list of ``[cwd, argv]``;
+#: prints a JSON list of ``[exit code, stderr]``
+_CLI_CASES = """
+import contextlib, io, json, os, sys
+from geomint.cli import main
+results = []
+for cwd, argv in json.loads(sys.argv[1]):
+    os.chdir(cwd)
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        try:
+            code = main(argv)
+        except SystemExit as exit_:
+            code = exit_.code
+    results.append([code, err.getvalue()])
+print(json.dumps(results))
+"""
+
+
+@pytest.fixture(scope="module")
+def warm_cli(tmp_path_factory):
+    """One short run of ``VALID`` in a subprocess, so that numba's disk cache holds its kernels before a test
+    times a subprocess (shared by the Ctrl-C tests: each ran the same warm-up run before)."""
+    folder = tmp_path_factory.mktemp("warm")
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    _geomint(["run", _scene(folder, VALID, "warm"), "--out", folder / "out", "--quiet"], folder, env)
+    return env
+
+
 def test_unwritable_out_and_unwritable_working_folder(tmp_path):
     prefix = _unprivileged()
     if prefix is None:
@@ -212,20 +241,26 @@ def test_unwritable_out_and_unwritable_working_folder(tmp_path):
     locked.mkdir()
     locked.chmod(0o555)
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    for args, cwd, pattern in ((["run", scene, "--out", locked / "out"], tmp_path, "--out .*locked/out"),
-                               (["run", scene], locked, "--out runs/scene")):
-        done = _geomint(args, cwd, env, prefix)
-        assert done.returncode == BAD_INPUT and "Traceback" not in done.stderr
-        _one_line_error(done.stderr, pattern + r": cannot write there \(Permission denied\)")
+    cases = ((["run", scene, "--out", locked / "out"], tmp_path, "--out .*locked/out"),
+             (["run", scene], locked, "--out runs/scene"))
+    # both cases in one unprivileged process (``main`` is the console entry point), each from its own folder
+    done = subprocess.run([*prefix, sys.executable, "-c", _CLI_CASES,
+                           json.dumps([[str(cwd), [str(a) for a in args]] for args, cwd, _ in cases])],
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+    results = json.loads(done.stdout)
+    assert len(results) == len(cases)
+    for (code, err), (_, _, pattern) in zip(results, cases):
+        assert code == BAD_INPUT and "Traceback" not in err
+        _one_line_error(err, pattern + r": cannot write there \(Permission denied\)")
     assert list(locked.iterdir()) == []
 
 
-def test_ctrl_c_in_a_cli_run_writes_what_was_done_and_exits_130(tmp_path):
+def test_ctrl_c_in_a_cli_run_writes_what_was_done_and_exits_130(tmp_path, warm_cli):
     long = VALID.replace("points = [[0.6, 0.0, 0.8]]", "points = [[0.6, 0.0, 0.8], [0.0, 0.6, 0.8]]").replace(
         "duration = 0.5", "duration = 1e6").replace("every = 1", "every = 10000")
     scene, out = _scene(tmp_path, long), tmp_path / "out"
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    _geomint(["run", _scene(tmp_path, VALID, "warm"), "--out", tmp_path / "warm", "--quiet"], tmp_path, env)
+    env = warm_cli
     process = subprocess.Popen([sys.executable, "-m", "geomint.cli", "run", str(scene), "--out", str(out), "--quiet"],
                                cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True)
     time.sleep(4.0)
@@ -277,13 +312,12 @@ def test_a_read_only_install_with_a_read_only_home_imports_and_solves(tmp_path):
             path.chmod(0o755)
 
 
-def test_resume_from_a_checkpoint_gives_the_uninterrupted_run_bit_for_bit(tmp_path, capsys):
+def test_resume_from_a_checkpoint_gives_the_uninterrupted_run_bit_for_bit(tmp_path, capsys, warm_cli):
     """Ctrl-C 2 s into a checkpointed run, then --resume: the arrays equal a run never stopped."""
     scene_text = VALID.replace("points = [[0.6, 0.0, 0.8]]", "points = [[0.6, 0.0, 0.8], [0.0, 0.6, 0.8]]").replace(
         "duration = 0.5", "duration = 1.5e5").replace("every = 1", "every = 997")
     scene = _scene(tmp_path, scene_text)
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    _geomint(["run", _scene(tmp_path, VALID, "warm"), "--out", tmp_path / "warm", "--quiet"], tmp_path, env)
+    env = warm_cli
     out = tmp_path / "resumed"
     process = subprocess.Popen([sys.executable, "-m", "geomint.cli", "run", str(scene), "--out", str(out), "--quiet",
                                 "--checkpoint-every", "20000"], cwd=tmp_path, env=env, stderr=subprocess.PIPE,

@@ -14,7 +14,7 @@ workspace (``work``), so threads of an ensemble share nothing.
 import numpy as np
 from numba import njit
 
-from .field import field
+from .field import field, non_finite_culprit
 from .layout import NO_PROJECTION, NON_FINITE, OK, PROJECTION_FAILED, UNKNOWN, StepResult
 from .projection import project_step
 from .steps import advance
@@ -49,6 +49,9 @@ def pair_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, w
             if a[i, j] != 0.0:
                 y = axpy(h * a[i, j], (k[j, 0], k[j, 1], k[j, 2]), y)
         f = field(model, eps, hamiltonian, buf, y)
+        if not is_finite(f):  # name the user function that is not finite at this stage point
+            culprit = non_finite_culprit(model, buf, y, hamiltonian) if is_finite(y) else UNKNOWN
+            return (StepResult(y, comp, np.nan, np.nan, NON_FINITE, 0, i + 1, 0.0, culprit), ZERO, ZERO)
         k[i, 0], k[i, 1], k[i, 2] = f
     x_new, comp_new = advance(x, comp, _combine(k, b, h, s))
     evaluations = s
