@@ -111,9 +111,9 @@ def solve(system, x0, t_span, h=None, method="gonzalez", save_every=1, progress=
     events : callable or sequence of callables
         ``g(t, x)`` with optional ``terminal`` and ``direction`` attributes, as
         in scipy (``geomint.events``; built-ins ``events.relaxed``,
-        ``events.crossing``).  Zeros are located on the dense output to a few
-        ulps of t, the state there is a step of the method landing on that
-        time; ``sol.t_events``, ``sol.x_events``.  A terminal event stops the
+        ``events.crossing``).  Zeros are located to a few ulps of t on steps of
+        the method landing at the trial times, so the state there is a state of
+        the method (``geomint.events``); ``sol.t_events``, ``sol.x_events``.  A terminal event stops the
         run (``status = 1``).
     dense_output : bool, default False
         ``sol.sol(t)``: the cubic Hermite interpolant through every accepted
@@ -373,12 +373,12 @@ def _check_t_eval(t_eval, t0, t_end):
     lo, hi = min(t0, t_end), max(t0, t_end)
     outside = values[(values < lo) | (values > hi)]
     if outside.size:
-        raise ValueError(f"`t_eval` must lie within t_span = ({t0!r}, {t_end!r}); got {outside[0]!r}.")
+        raise ValueError(f"`t_eval` must lie within t_span = ({t0!r}, {t_end!r}); got {float(outside[0])!r}.")
     steps = np.diff(values) * math.copysign(1.0, t_end - t0)
     if np.any(steps <= 0):
         k = int(np.argmax(steps <= 0))
         order = "increasing" if t_end > t0 else "decreasing (t_span runs backward)"
-        raise ValueError(f"`t_eval` must be strictly {order}; got {values[k]!r} then {values[k + 1]!r} at index {k}.")
+        raise ValueError(f"`t_eval` must be strictly {order}; got {float(values[k])!r} then {float(values[k + 1])!r} at index {k}.")
     _check_memory(values.size + 2)
     return values
 
@@ -550,7 +550,7 @@ def _message(status, failed, t, t_from, h, counters, residual, integrator, what=
     if status == _layout.OK:
         return f"The integration reached t_end in {steps} steps{tried}."
     if status == TERMINATED:
-        return f"A termination event occurred at t = {t[-1]!r}, after {steps} steps{tried}."
+        return f"A termination event occurred at t = {float(t[-1])!r}, after {steps} steps{tried}."
     if status == _layout.INTERRUPTED:
         return (f"Interrupted (SIGINT) after {steps} steps, at t = {t[-1]:.6g}; the {rows} states saved "
                 "so far are kept, the last one is the state reached.")

@@ -1,6 +1,5 @@
 """Scenes: bundled paper examples, effects switches, observables, round trips, the level-set sampler."""
 
-import dataclasses
 
 import numpy as np
 import pytest

@@ -46,7 +46,7 @@ from .._cache import CACHE
 from .driver import _save, step
 from .field import non_finite_culprit
 from .layout import (
-    C_BASE, C_COUNT, C_ERROR, C_H, C_STOP, C_T, CULPRIT, DOUBLING, FAILED_STEP, FIELD_EVALUATIONS, NEWTON_FAILED,
+    C_BASE, C_COUNT, C_ERROR, C_H, C_STOP, C_T, CULPRIT, FAILED_STEP, FIELD_EVALUATIONS, NEWTON_FAILED,
     NEWTON_ITERATIONS, NON_FINITE, OK, PROJECTION_FAILED, RAISED, REJECTED, ROWS, RK4_REFERENCE, STATE_ANCHOR,
     STATE_COMP, STATE_S, STATE_X, STATUS, STEP_TOO_SMALL, STEPS, UNKNOWN, USER_RAISED, ComposedStep, DiscreteGradientStep,
     EmbeddedPairStep, RungeKutta4, StepResult,

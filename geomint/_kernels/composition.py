@@ -49,7 +49,7 @@ from .layout import (
     SYMMETRIC, UNKNOWN, WORK, StepResult,
 )
 from .projection import project_both, project_energy, project_step, rise_tolerance
-from .steps import EPS, _kept, advance, discrete_gradient_step, rk4_step
+from .steps import EPS, advance, discrete_gradient_step, rk4_step
 from .vec3 import ZERO, add, as_vector, axpy, dot, is_finite, load, norm_inf, sub
 
 #: a composed step off H(x0) by more than this many ulps of the terms of H is pulled back

@@ -1,6 +1,5 @@
 """The dissipative oscillator (paper section 2.2)."""
 
-import numpy as np
 from numba import njit
 
 from .._cache import CACHE
