@@ -170,7 +170,7 @@ class MetriplecticSystem:
         for value, gradient in ((f.H, f.grad_H), (f.S, f.grad_S)):
             try:
                 with np.errstate(all="ignore"):
-                    values += [float(value(zero, p)), *_vector(gradient(zero, p))]
+                    values += [float(value(zero, p)), *_components(gradient(zero, p))]
             except Exception:  # noqa: BLE001 - singular at 0 (log |x|, 1/|x| ...): no such terms to measure
                 values += [0.0] * 4
         origin = np.array(values, dtype=np.float64)
@@ -222,13 +222,10 @@ class MetriplecticSystem:
         effects = "" if self.hamiltonian else ", hamiltonian=False"
         return f"MetriplecticSystem(name={self.name!r}, eps={self.eps!r}{effects}, params={self.params.tolist()!r})"
 
-    # -- vectorised evaluation ---------------------------------------------------------
+    # -- evaluation at one state or many ------------------------------------------------
     def _evaluate(self, x):
-        """``(H, S, grad H, grad S, J)`` at one state (scalars and (3,) arrays) or at many (arrays)."""
-        X = np.asarray(x, dtype=np.float64)
-        if X.shape == (3,):
-            return self._evaluate_one(np.ascontiguousarray(X))
-        X = np.ascontiguousarray(np.atleast_2d(X))
+        """``(H, S, grad H, grad S, J)`` at many states (n, 3), from one compiled loop: arrays."""
+        X = np.ascontiguousarray(np.atleast_2d(np.asarray(x, dtype=np.float64)))
         if X.ndim != 2 or X.shape[1] != 3:
             raise ValueError(f"`x` must have shape (3,) or (n, 3); got shape {np.shape(x)}.")
         n = X.shape[0]
@@ -237,16 +234,27 @@ class MetriplecticSystem:
             _field.evaluate(self.model, X, *out)
         if raised:  # find the state and the function: the direct calls raise where the kernel's could not
             for row in X:
-                self._evaluate_one(row)
+                self._at_one(row, range(5))
             raise raised[0]
         return out
 
-    def _evaluate_one(self, x):
-        """One state: the user's functions called directly (a few microseconds, no kernel dispatch)."""
+    def _at(self, x, which):
+        """The functions ``which`` (indices into H, S, grad H, grad S, J) at ``x``: scalars, and vectors as
+        3-tuples of components, floats for one state (3,) and arrays for many (n, 3); ``_array`` makes
+        arrays of them.  The same formulas then serve both."""
+        X = np.asarray(x, dtype=np.float64)
+        if X.shape == (3,):
+            return self._at_one(np.ascontiguousarray(X), which)
+        values = self._evaluate(X)
+        return tuple(values[i] if i < 2 else tuple(values[i].T) for i in which)
+
+    def _at_one(self, x, which):
+        """One state: only the user functions asked for, each called once directly (no kernel dispatch,
+        ~0.5 us a call)."""
         f, p = self.functions, self._params
+        functions = (f.H, f.S, f.grad_H, f.grad_S, f.poisson)
         try:
-            return (float(f.H(x, p)), float(f.S(x, p)), _vector(f.grad_H(x, p)), _vector(f.grad_S(x, p)),
-                    _vector(f.poisson(x, p)))
+            return [float(functions[i](x, p)) if i < 2 else _components(functions[i](x, p)) for i in which]
         except Exception:
             found = self.raising_function(x)
             if found is None:
@@ -267,36 +275,41 @@ class MetriplecticSystem:
 
     def H(self, x):
         """Energy at ``x``."""
-        return self._evaluate(x)[0]
+        return self._at(x, (_H,))[0]
 
     def S(self, x):
         """Casimir (entropy-like function) at ``x``."""
-        return self._evaluate(x)[1]
+        return self._at(x, (_S,))[0]
 
     def grad_H(self, x):
-        return self._evaluate(x)[2]
+        return _array(self._at(x, (_GRAD_H,))[0])
 
     def grad_S(self, x):
-        return self._evaluate(x)[3]
+        return _array(self._at(x, (_GRAD_S,))[0])
 
     def J(self, x):
         """Axial vector of the Poisson tensor, ``P v = v x J``."""
-        return self._evaluate(x)[4]
+        return _array(self._at(x, (_J,))[0])
 
     def xi_P(self, x):
         """Hamiltonian field ``grad H x J``."""
-        _, _, gh, _, j = self._evaluate(x)
-        return _cross(gh, j)
+        gh, j = self._at(x, (_GRAD_H, _J))
+        return _array(_cross(gh, j))
 
     def xi_g(self, x):
         """Gradient field ``g grad S = grad H x (grad H x grad S)`` (without eps)."""
-        _, _, gh, gs, _ = self._evaluate(x)
-        return _cross(gh, _cross(gh, gs))
+        gh, gs = self._at(x, (_GRAD_H, _GRAD_S))
+        return _array(_cross(gh, _cross(gh, gs)))
 
     def xi(self, x):
         """The field ``xi_P + eps xi_g`` (without ``xi_P`` when the Hamiltonian part is off)."""
-        _, _, gh, gs, j = self._evaluate(x)
-        return (_cross(gh, j) if self.hamiltonian else 0.0) + self.eps * _cross(gh, _cross(gh, gs))
+        if self.hamiltonian:
+            gh, gs, j = self._at(x, (_GRAD_H, _GRAD_S, _J))
+            p = _cross(gh, j)
+        else:
+            (gh, gs), p = self._at(x, (_GRAD_H, _GRAD_S)), (0.0, 0.0, 0.0)
+        d, eps = _cross(gh, _cross(gh, gs)), self.eps
+        return _array((p[0] + eps * d[0], p[1] + eps * d[1], p[2] + eps * d[2]))
 
     def g(self, x):
         """The metric ``grad H (x) grad H - I |grad H|^2``, shape (3, 3) or (n, 3, 3)."""
@@ -306,8 +319,8 @@ class MetriplecticSystem:
 
     def sigma(self, x):
         """``sigma = grad S x grad H``; ``dS/dt = -eps |sigma|^2``."""
-        _, _, gh, gs, _ = self._evaluate(x)
-        return _cross(gs, gh)
+        gh, gs = self._at(x, (_GRAD_H, _GRAD_S))
+        return _array(_cross(gs, gh))
 
     def dS_dt(self, x):
         """Rate of change of S along the flow, ``-eps |sigma|^2``."""
@@ -330,22 +343,29 @@ class MetriplecticSystem:
         return system
 
 
-def _vector(v):
-    """A user function's vector (3-tuple or array; a 3x3 ``P`` gives its axial vector) as a (3,) array."""
+#: indices of the user functions in ``MetriplecticSystem._at``
+_H, _S, _GRAD_H, _GRAD_S, _J = range(5)
+
+
+def _components(v):
+    """A user function's vector (3-tuple or array; a 3x3 ``P`` gives its axial vector) as a 3-tuple of floats."""
+    if type(v) is tuple:
+        return v
     a = np.asarray(v, dtype=np.float64)
     if a.shape == (3, 3):
-        return np.array([a[1, 2], -a[0, 2], a[0, 1]])
-    return a if a.shape == (3,) else a.reshape(3)
+        return (float(a[1, 2]), -float(a[0, 2]), float(a[0, 1]))
+    return tuple(a.reshape(3).tolist())
 
 
 def _cross(u, v):
-    """``u x v`` over the last axis; plain arithmetic (``np.cross`` costs ~10 us on one pair, and so
-    does ``np.stack``: one pair is computed on Python floats)."""
-    if u.ndim == 1 and v.ndim == 1:
-        (a0, a1, a2), (b0, b1, b2) = u.tolist(), v.tolist()
-        return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
-    return np.stack([u[..., 1] * v[..., 2] - u[..., 2] * v[..., 1], u[..., 2] * v[..., 0] - u[..., 0] * v[..., 2],
-                     u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]], axis=-1)
+    """``u x v`` on 3-tuples of components (floats, or arrays over states): plain arithmetic, because
+    ``np.cross`` costs ~10 us on one pair."""
+    return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+
+
+def _array(v):
+    """A 3-tuple of components as an array: (3,) for floats, (n, 3) for arrays over states."""
+    return np.array(v, dtype=np.float64) if isinstance(v[0], float) else np.stack(v, axis=-1)
 
 
 # -- validation of the user's functions (the boundary) --------------------------------

@@ -204,15 +204,15 @@ def average_gradient(grad_F, params, buf, x, dx, coeffs):
     return total
 
 
-@njit(error_model="numpy")
-def _gonzalez_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
+# -- the four discrete gradients of F, one signature: (kind, coeffs, F, grad_F, params, buf, x, x', F(x), F(x'),
+#    size, gain, base) -> (dgF, noise); ``kind`` is read only by ``_by_code`` -----------------------------------
+def _gonzalez_dg(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
     dx = sub(x_new, x)
     load(buf, axpy(0.5, dx, x))
     return gonzalez(as_vector(grad_F(buf, params)), f_old, f_new, dx, x_new, gain, base)
 
 
-@njit(error_model="numpy")
-def _avf_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
+def _avf_dg(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
     """AVF: the Gauss-Legendre average of grad F on the segment (Quispel, McLaren, J. Phys. A 41
     (2008) 045206, doi:10.1088/1751-8113/41/4/045206), made an exact discrete gradient for any F by
     Gonzalez's projection; the projection's correction vanishes (to round-off) when the rule
@@ -231,54 +231,42 @@ def _exact(dg_noise, f_old, f_new, x, x_new, gain, base):
     return exact, max(noise, more)
 
 
-@njit(error_model="numpy")
-def _itoh_abe_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
+def _itoh_abe_dg(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
     return _exact(itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, base), f_old, f_new, x, x_new, gain,
                   base)
 
 
-@njit(error_model="numpy")
-def _symmetrized_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
+def _symmetrized_dg(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
     return _exact(symmetrized_itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, base), f_old, f_new, x,
                   x_new, gain, base)
 
 
-@njit(error_model="numpy")
-def _by_code(code, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
-    if code == ITOH_ABE:
-        return _itoh_abe_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
-    if code == SYMMETRIZED_ITOH_ABE:
-        return _symmetrized_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
-    if code == AVF:
-        return _avf_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
-    return _gonzalez_dg(coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
-
-
 _BY_MARKER = {GonzalezKind: _gonzalez_dg, ItohAbeKind: _itoh_abe_dg, SymmetrizedItohAbeKind: _symmetrized_dg,
               AVFKind: _avf_dg}
+_gonzalez_called, _itoh_abe_called, _symmetrized_called, _avf_called = (
+    njit(error_model="numpy")(dg) for dg in (_gonzalez_dg, _itoh_abe_dg, _symmetrized_dg, _avf_dg))
+
+
+@njit(error_model="numpy")
+def _by_code(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
+    """The discrete gradient chosen at run time by the integer code ``kind`` (the stages of a composed program)."""
+    if kind == ITOH_ABE:
+        return _itoh_abe_called(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
+    if kind == SYMMETRIZED_ITOH_ABE:
+        return _symmetrized_called(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
+    if kind == AVF:
+        return _avf_called(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
+    return _gonzalez_called(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
 
 
 def discrete_gradient(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
-    """The discrete gradient of F at ``(x, x')`` selected by ``kind``, and its round-off bound.
+    """The discrete gradient of F at ``(x, x')`` selected by ``kind``, and its round-off bound (Python callers and
+    ``NUMBA_DISABLE_JIT=1``; compiled code reaches them through ``discrete_field``).
 
-    ``kind`` is a kind marker (``layout.GonzalezKind`` ...: the choice is made when
-    the kernel is compiled, so a run compiles only its own discrete gradient) or
-    an integer code (the stages of a composed program: chosen at run time).
+    ``kind`` is a kind marker (``layout.GonzalezKind`` ...) or an integer code.
     """
-    code = kind if isinstance(kind, (int, np.integer)) else kind.code
-    return _by_code(code, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
-
-
-@overload(discrete_gradient)
-def _discrete_gradient_typed(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
-    if isinstance(kind, types.Integer):
-        return lambda kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base: _by_code(
-            kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base
-        )
-    impl = _BY_MARKER[kind.instance_class]
-    return lambda kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base: impl(
-        coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base
-    )
+    dg = _by_code if isinstance(kind, (int, np.integer)) else _BY_MARKER[type(kind)]
+    return dg(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
 
 
 @njit(error_model="numpy")
@@ -331,43 +319,66 @@ def polish(F, dg_h, dg_s, eps):
     return axpy((rate - dot(F, v)) / ww, w, F)
 
 
-@njit(error_model="numpy")
+def _discrete_field_with(discrete_gradient):
+    def discrete_field(kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales):
+        """The discrete field F(x, x') and ``(H(x'), S(x'), dgH, dgS, Jbar, noise)``.
+
+        ``h`` and ``scales = (|J|, |dgH|, |dgS|)`` (from the caller's previous
+        evaluation; zeros for none) give the gains with which round-off in dgH and
+        dgS moves the step ``x' = x + h F`` (Gonzalez's switching rule):
+        ``|h| (|J| + 2 eps |dgH| |dgS|)`` for dgH and ``|h| (|J| / |dgS| + eps |dgH|^2)``
+        for dgS (through the direction of ``Jbar``).
+
+        ``J`` is called only with the Hamiltonian part on (else ``Jbar = 0``); S and
+        its gradient are always needed, to keep ``Jbar`` parallel to dgS.
+        ``noise`` bounds the round-off that the discrete gradients carry into F: the
+        floor below which a Newton correction cannot go.
+        """
+        p = model.params
+        size = max(norm_inf(x), norm_inf(x_new))
+        load(buf, x_new)
+        H_new = model.H(buf, p)
+        S_new = model.S(buf, p)
+        axial_size, size_h, size_s = scales
+        gain_h = abs(h) * ((axial_size if hamiltonian else 0.0) + 2.0 * eps * size_h * size_s)
+        gain_s = abs(h) * ((axial_size / size_s if hamiltonian and size_s > 0.0 else 0.0) + eps * size_h * size_h)
+        dg_h, noise_h = discrete_gradient(kind, coeffs, model.H, model.grad_H, p, buf, x, x_new, H_old, H_new, size,
+                                          gain_h, origin_terms(model.origin, 0, x_new))
+        dg_s, noise_s = discrete_gradient(kind, coeffs, model.S, model.grad_S, p, buf, x, x_new, S_old, S_new, size,
+                                          gain_s, origin_terms(model.origin, 4, x_new))
+        size_h, size_s = norm_inf(dg_h), norm_inf(dg_s)
+        noise = eps * (2.0 * noise_h * size_s + noise_s * size_h) * size_h
+        axial_bar = ZERO
+        if hamiltonian:
+            load(buf, axpy(0.5, sub(x_new, x), x))
+            axial = as_vector(model.J(buf, p))
+            axial_bar = discrete_axial(axial, dg_s)
+            noise += noise_h * norm_inf(axial) + (size_h * norm_inf(axial) * noise_s / size_s if size_s > 0.0 else 0.0)
+        F = polish(dissipative(dg_h, dg_s, eps, cross(dg_h, axial_bar)), dg_h, dg_s, eps)
+        return F, H_new, S_new, dg_h, dg_s, axial_bar, noise
+    return discrete_field
+
+
+#: the discrete field of each kind of discrete gradient, the gradient inlined (a call carrying the user's functions
+#: costs more than the quotient), and of integer codes (composed programs: chosen at run time)
+_FIELDS = {marker: njit(error_model="numpy")(_discrete_field_with(njit(inline="always")(dg)))
+           for marker, dg in _BY_MARKER.items()}
+_FIELD_BY_CODE = njit(error_model="numpy")(_discrete_field_with(_by_code))
+
+
 def discrete_field(kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales):
-    """The discrete field F(x, x') and ``(H(x'), S(x'), dgH, dgS, Jbar, noise)``.
+    """The discrete field F(x, x') and ``(H(x'), S(x'), dgH, dgS, Jbar, noise)`` (``_discrete_field_with``); ``kind``
+    a kind marker (chosen when the kernel is compiled, so a run compiles only its own discrete gradient) or an
+    integer code."""
+    field = _FIELD_BY_CODE if isinstance(kind, (int, np.integer)) else _FIELDS[type(kind)]
+    return field(kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales)
 
-    ``h`` and ``scales = (|J|, |dgH|, |dgS|)`` (from the caller's previous
-    evaluation; zeros for none) give the gains with which round-off in dgH and
-    dgS moves the step ``x' = x + h F`` (Gonzalez's switching rule):
-    ``|h| (|J| + 2 eps |dgH| |dgS|)`` for dgH and ``|h| (|J| / |dgS| + eps |dgH|^2)``
-    for dgS (through the direction of ``Jbar``).
 
-    ``J`` is called only with the Hamiltonian part on (else ``Jbar = 0``); S and
-    its gradient are always needed, to keep ``Jbar`` parallel to dgS.
-    ``noise`` bounds the round-off that the discrete gradients carry into F: the
-    floor below which a Newton correction cannot go.
-    """
-    p = model.params
-    size = max(norm_inf(x), norm_inf(x_new))
-    load(buf, x_new)
-    H_new = model.H(buf, p)
-    S_new = model.S(buf, p)
-    axial_size, size_h, size_s = scales
-    gain_h = abs(h) * ((axial_size if hamiltonian else 0.0) + 2.0 * eps * size_h * size_s)
-    gain_s = abs(h) * ((axial_size / size_s if hamiltonian and size_s > 0.0 else 0.0) + eps * size_h * size_h)
-    dg_h, noise_h = discrete_gradient(kind, coeffs, model.H, model.grad_H, p, buf, x, x_new, H_old, H_new, size, gain_h,
-                                      origin_terms(model.origin, 0, x_new))
-    dg_s, noise_s = discrete_gradient(kind, coeffs, model.S, model.grad_S, p, buf, x, x_new, S_old, S_new, size, gain_s,
-                                      origin_terms(model.origin, 4, x_new))
-    size_h, size_s = norm_inf(dg_h), norm_inf(dg_s)
-    noise = eps * (2.0 * noise_h * size_s + noise_s * size_h) * size_h
-    axial_bar = ZERO
-    if hamiltonian:
-        load(buf, axpy(0.5, sub(x_new, x), x))
-        axial = as_vector(model.J(buf, p))
-        axial_bar = discrete_axial(axial, dg_s)
-        noise += noise_h * norm_inf(axial) + (size_h * norm_inf(axial) * noise_s / size_s if size_s > 0.0 else 0.0)
-    F = polish(dissipative(dg_h, dg_s, eps, cross(dg_h, axial_bar)), dg_h, dg_s, eps)
-    return F, H_new, S_new, dg_h, dg_s, axial_bar, noise
+@overload(discrete_field)
+def _discrete_field_typed(kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales):
+    field = _FIELD_BY_CODE if isinstance(kind, types.Integer) else _FIELDS[kind.instance_class]
+    return lambda kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales: field(
+        kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales)
 
 
 @njit(cache=CACHE, error_model="numpy")

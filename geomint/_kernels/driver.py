@@ -30,23 +30,23 @@ Grid = namedtuple("Grid", "t0 h n_steps h_last save_every")
 Output = namedtuple("Output", "t x H S counters residual")
 
 
-@njit(error_model="numpy")
+@njit(inline="always")
 def _rk4(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
     return rk4_step(model, eps, hamiltonian, buf, x, comp, h)
 
 
-@njit(error_model="numpy")
+@njit(inline="always")
 def _discrete_gradient(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
     return discrete_gradient_step(method.kind, method.max_iter, method.damped, method.compensated, method.coeffs, model,
                                   eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work)
 
 
-@njit(error_model="numpy")
+@njit(inline="always")
 def _composed(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
     return composed_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work, 0.0)[0]
 
 
-@njit(error_model="numpy")
+@njit(inline="always")
 def _pair(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
     return pair_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work, False)[0]
 
@@ -60,7 +60,7 @@ def step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
     return _STEPS[type(method)](method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work)
 
 
-@overload(step)
+@overload(step, inline="always")
 def _step_typed(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
     impl = _STEPS[method.instance_class]
     return lambda method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work: impl(

@@ -25,7 +25,7 @@ SAFE_LOW = 2.0**-200
 SAFE_HIGH = 2.0**200
 
 
-@njit(error_model="numpy")
+@njit(inline="always")
 def dissipative(grad_h, grad_s, eps, base):
     """``base + eps * grad_h x (grad_h x grad_s)``.
 
@@ -35,13 +35,20 @@ def dissipative(grad_h, grad_s, eps, base):
     components), so the triple product neither underflows nor overflows where
     the result does not.  Scaling by powers of two is exact: both branches give
     the same bits wherever both can be evaluated, so a run and the same run
-    scaled by a power of two stay bitwise alike.
+    scaled by a power of two stay bitwise alike.  Inlined (the hot path of every
+    field evaluation); the rare scaled branch is a call.
     """
     a = norm_inf(grad_h)
     b = norm_inf(grad_s)
     if (SAFE_LOW <= a <= SAFE_HIGH and SAFE_LOW <= b <= SAFE_HIGH) or a == 0.0 or b == 0.0 or not (
             np.isfinite(a) and np.isfinite(b)):
         return axpy(eps, cross(grad_h, cross(grad_h, grad_s)), base)
+    return _dissipative_scaled(grad_h, grad_s, eps, base, a, b)
+
+
+@njit(error_model="numpy")
+def _dissipative_scaled(grad_h, grad_s, eps, base, a, b):
+    """``dissipative`` for gradients whose largest components ``a``, ``b`` lie outside the safe range."""
     i = math.frexp(a)[1]
     j = math.frexp(b)[1]
     if i < -1000 or j < -1000:  # subnormal gradients: 2^-i would overflow
@@ -51,8 +58,7 @@ def dissipative(grad_h, grad_s, eps, base):
     return axpy(math.ldexp(eps, 2 * i + j), cross(u, cross(u, v)), base)
 
 
-@njit(error_model="numpy")
-def field(model, eps, hamiltonian, buf, x):
+def _field(model, eps, hamiltonian, buf, x):
     """The metriplectic field xi(x), with only the switched-on parts evaluated."""
     load(buf, x)
     grad_h = as_vector(model.grad_H(buf, model.params))
@@ -60,6 +66,12 @@ def field(model, eps, hamiltonian, buf, x):
     if eps != 0.0:
         value = dissipative(grad_h, as_vector(model.grad_S(buf, model.params)), eps, value)
     return value
+
+
+#: the field as a call (Jacobians, starts, failure reports: compiled once)
+field = njit(error_model="numpy")(_field)
+#: the field inlined where it is called: the explicit steps' stages, where a call costs more than the arithmetic
+field_inlined = njit(inline="always")(_field)
 
 
 @njit(cache=CACHE, error_model="numpy")
