@@ -62,7 +62,7 @@ def _invariants(model, buf, x):
     return model.H(buf, model.params), model.S(buf, model.params)
 
 
-@njit(error_model="numpy")
+@njit(inline="always")
 def leaf_step(coeffs, iopts, row, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, work):
     """One step of the leaf in program row ``row`` on its flow (a ``StepResult``)."""
     leaf, flow = iopts[row + R_LEAF], iopts[row + R_FLOW]

@@ -243,20 +243,23 @@ def _symmetrized_dg(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new
 
 _BY_MARKER = {GonzalezKind: _gonzalez_dg, ItohAbeKind: _itoh_abe_dg, SymmetrizedItohAbeKind: _symmetrized_dg,
               AVFKind: _avf_dg}
-_gonzalez_called, _itoh_abe_called, _symmetrized_called, _avf_called = (
-    njit(error_model="numpy")(dg) for dg in (_gonzalez_dg, _itoh_abe_dg, _symmetrized_dg, _avf_dg))
+_gonzalez_inlined = njit(inline="always")(_gonzalez_dg)
+_itoh_abe_called, _symmetrized_called, _avf_called = (
+    njit(error_model="numpy")(dg) for dg in (_itoh_abe_dg, _symmetrized_dg, _avf_dg))
 
 
-@njit(error_model="numpy")
+@njit(inline="always")
 def _by_code(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
-    """The discrete gradient chosen at run time by the integer code ``kind`` (the stages of a composed program)."""
+    """The discrete gradient chosen at run time by the integer code ``kind`` (the stages of a composed program):
+    inlined into the discrete field of codes, with Gonzalez's gradient (the usual stage, and a short one) inlined
+    too and the others called."""
     if kind == ITOH_ABE:
         return _itoh_abe_called(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
     if kind == SYMMETRIZED_ITOH_ABE:
         return _symmetrized_called(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
     if kind == AVF:
         return _avf_called(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
-    return _gonzalez_called(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
+    return _gonzalez_inlined(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
 
 
 def discrete_gradient(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):

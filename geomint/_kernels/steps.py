@@ -329,6 +329,38 @@ def seed_predictor(work, dx, h):
 
 
 @njit(error_model="numpy")
+def _attempts(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, work, first):
+    """The starts a step tries when it has no extrapolated one, or when that failed (``first = 1``), in turn:
+    a fresh Jacobian and the linearly implicit start; the explicit RK4 increment; a fresh Jacobian with the
+    step anchored to H(x_n).  Returns ``_newton``'s tuple and the attempt that ended it."""
+    iterations = 0
+    evaluations = 0
+    target = H_x
+    for attempt in range(first, 4):
+        if attempt == 1 and first == 0:
+            continue  # attempt 0 already started from a fresh Jacobian
+        if attempt == 2:
+            dx = rk4_increment(model, eps, hamiltonian, buf, x, h)
+            evaluations += 4
+        else:
+            f0 = field(model, eps, hamiltonian, buf, x)
+            c0, c1, c2 = _jacobian(model, eps, hamiltonian, buf, x, f0)
+            _store_jacobian(work, c0, c1, c2)
+            evaluations += 4
+            dx = _start(work, h, f0)
+            if attempt == 3:
+                target = model.H(load(buf, x), model.params)
+        status, x_new, comp_new, H_new, S_new, it, ev, rate, culprit = _newton(
+            kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, target, S_x, h, dx, _newton_matrix(work, h)
+        )
+        iterations += it
+        evaluations += ev
+        if status != NEWTON_FAILED:
+            break
+    return status, x_new, comp_new, H_new, S_new, iterations, evaluations, rate, culprit, attempt
+
+
+@njit(error_model="numpy")
 def discrete_gradient_step(kind, max_iter, damped, compensated, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x,
                            h, work):
     """One metriplectic discrete-gradient step ``x' = x + h F(x, x')`` (``discrete_field``), solved to round-off.
@@ -362,33 +394,20 @@ def discrete_gradient_step(kind, max_iter, damped, compensated, coeffs, model, e
     if damped:
         eps = eps * damping_factor(model, eps, buf, x, h)
         evaluations += 4
-    iterations = 0
-    fresh = False
-    target = H_x
-    for attempt in range(4):
-        if attempt == 0 and work[W_HISTORY] > 0.0 and work[W_H] == h and work[W_JACOBIAN_VALID] > 0.0:
-            dx = _predictor(work)
-        elif attempt == 1 and fresh:
-            continue  # the first attempt already started from a fresh Jacobian
-        elif attempt == 2:
-            dx = rk4_increment(model, eps, hamiltonian, buf, x, h)
-            evaluations += 4
-        else:
-            f0 = field(model, eps, hamiltonian, buf, x)
-            c0, c1, c2 = _jacobian(model, eps, hamiltonian, buf, x, f0)
-            _store_jacobian(work, c0, c1, c2)
-            evaluations += 4
-            fresh = True
-            dx = _start(work, h, f0)
-            if attempt == 3:
-                target = model.H(load(buf, x), model.params)
-        status, x_new, comp_new, H_new, S_new, it, ev, rate, culprit = _newton(
-            kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, target, S_x, h, dx, _newton_matrix(work, h)
-        )
+    fresh = not (work[W_HISTORY] > 0.0 and work[W_H] == h and work[W_JACOBIAN_VALID] > 0.0)
+    attempt = 0
+    status, iterations = NEWTON_FAILED, 0
+    if not fresh:  # the usual step: the extrapolated start with the slot's Newton matrix
+        status, x_new, comp_new, H_new, S_new, iterations, ev, rate, culprit = _newton(
+            kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, _predictor(work),
+            _newton_matrix(work, h))
+        evaluations += ev
+    if fresh or status == NEWTON_FAILED:
+        status, x_new, comp_new, H_new, S_new, it, ev, rate, culprit, attempt = _attempts(
+            kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, work, 0 if fresh else 1)
         iterations += it
         evaluations += ev
-        if status != NEWTON_FAILED:
-            break
+        fresh = True
     if status != OK:
         work[W_HISTORY] = 0.0
         return StepResult(x_new, comp_new, H_new, S_new, status, iterations, evaluations, rate, culprit)
