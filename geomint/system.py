@@ -225,7 +225,7 @@ class MetriplecticSystem:
     # -- evaluation at one state or many ------------------------------------------------
     def _evaluate(self, x):
         """``(H, S, grad H, grad S, J)`` at many states (n, 3), from one compiled loop: arrays."""
-        X = np.ascontiguousarray(np.atleast_2d(np.asarray(x, dtype=np.float64)))
+        X = np.ascontiguousarray(np.atleast_2d(_states(x)))
         if X.ndim != 2 or X.shape[1] != 3:
             raise ValueError(f"`x` must have shape (3,) or (n, 3); got shape {np.shape(x)}.")
         n = X.shape[0]
@@ -242,7 +242,7 @@ class MetriplecticSystem:
         """The functions ``which`` (indices into H, S, grad H, grad S, J) at ``x``: scalars, and vectors as
         3-tuples of components, floats for one state (3,) and arrays for many (n, 3); ``_array`` makes
         arrays of them.  The same formulas then serve both."""
-        X = np.asarray(x, dtype=np.float64)
+        X = _states(x)
         if X.shape == (3,):
             return self._at_one(np.ascontiguousarray(X), which)
         values = self._evaluate(X)
@@ -345,6 +345,14 @@ class MetriplecticSystem:
 
 #: indices of the user functions in ``MetriplecticSystem._at``
 _H, _S, _GRAD_H, _GRAD_S, _J = range(5)
+
+
+def _states(x):
+    """``x`` as a float64 array, or a TypeError naming ``x``."""
+    try:
+        return np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise TypeError(f"`x` must be a state of 3 real numbers, or an (n, 3) array of them; got {x!r}.") from None
 
 
 def _components(v):

@@ -243,7 +243,10 @@ def _symmetrized_dg(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new
 
 _BY_MARKER = {GonzalezKind: _gonzalez_dg, ItohAbeKind: _itoh_abe_dg, SymmetrizedItohAbeKind: _symmetrized_dg,
               AVFKind: _avf_dg}
-_gonzalez_inlined = njit(inline="always")(_gonzalez_dg)
+#: each discrete gradient compiled to be inlined (into its own discrete field, below) ...
+_INLINED = {marker: njit(inline="always")(dg) for marker, dg in _BY_MARKER.items()}
+_gonzalez_inlined = _INLINED[GonzalezKind]
+#: ... and as a call (the less usual stages of composed programs)
 _itoh_abe_called, _symmetrized_called, _avf_called = (
     njit(error_model="numpy")(dg) for dg in (_itoh_abe_dg, _symmetrized_dg, _avf_dg))
 
@@ -364,8 +367,7 @@ def _discrete_field_with(discrete_gradient):
 
 #: the discrete field of each kind of discrete gradient, the gradient inlined (a call carrying the user's functions
 #: costs more than the quotient), and of integer codes (composed programs: chosen at run time)
-_FIELDS = {marker: njit(error_model="numpy")(_discrete_field_with(njit(inline="always")(dg)))
-           for marker, dg in _BY_MARKER.items()}
+_FIELDS = {marker: njit(error_model="numpy")(_discrete_field_with(dg)) for marker, dg in _INLINED.items()}
 _FIELD_BY_CODE = njit(error_model="numpy")(_discrete_field_with(_by_code))
 
 
