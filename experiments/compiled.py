@@ -4,6 +4,8 @@
   jitted ``f(t, x) -> array`` for ``scipy.integrate.solve_ivp``.  A fair baseline
   needs a fast right-hand side: ``system.xi`` is a vectorised analysis function
   (~0.3 ms per call on one state), this one costs ~1 us per call from Python.
+- ``lsoda_rhs``: the same field as a C callback for numbalsoda's compiled LSODA
+  (``numbalsoda.lsoda_sig``; benchmark extra ``pip install geomint[bench]``).
 - ``bare_field_loop``: n field evaluations in a compiled loop (the cost floor of
   every method, for the benchmark's profile).
 - ``field_loop_through_pointers``: the same through first-class function
@@ -60,6 +62,20 @@ def scipy_rhs(system):
         out = np.empty(3)
         out[0], out[1], out[2] = v
         return out
+
+    return rhs
+
+
+def lsoda_rhs(system):
+    """The system's field as a ``numbalsoda.lsoda_sig`` C callback (``rhs.address`` goes to ``numbalsoda.lsoda``)."""
+    from numbalsoda import lsoda_sig
+
+    _, grad_H, _, grad_S, J, params, eps, hamiltonian = _functions(system)
+
+    @numba.cfunc(lsoda_sig)
+    def rhs(t, u, du, p):
+        x = numba.carray(u, 3)
+        du[0], du[1], du[2] = _combine(eps, grad_H(x, params), J(x, params), grad_S(x, params), hamiltonian)
 
     return rhs
 

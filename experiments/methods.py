@@ -25,6 +25,14 @@ _CANDIDATES = (
     ("RK4", ("RK4",), lambda g: g.RK4()),
 )
 
+#: geomint methods run with adaptive steps (h=None, rtol = atol) in the work-precision sweeps
+_ADAPTIVE = (
+    ("Projected(DormandPrince853) adaptive", ("Projected", "DormandPrince853"), lambda g: g.Projected(g.DormandPrince853())),
+    ("Projected(DormandPrince54) adaptive", ("Projected", "DormandPrince54"), lambda g: g.Projected(g.DormandPrince54())),
+    ("Gonzalez adaptive", ("Gonzalez",), lambda g: g.Gonzalez()),
+    ("Yoshida4(Gonzalez) adaptive", ("Yoshida4", "Gonzalez"), lambda g: g.Yoshida4(g.Gonzalez())),
+)
+
 #: scipy.integrate.solve_ivp methods and the relative tolerances of the drift runs
 SCIPY_DRIFT = (("RK45", (1e-6, 1e-10)), ("DOP853", (1e-6, 1e-10)), ("LSODA", (1e-6, 1e-10)), ("Radau", (1e-6,)))
 #: solve_ivp methods of the work-precision sweeps (each over a range of tolerances)
@@ -55,6 +63,12 @@ class Method:
     @property
     def order(self):
         return getattr(self.integrator, "order", None)
+
+
+def adaptive_methods(module=geomint):
+    """The geomint methods the work-precision sweeps also run with adaptive steps."""
+    return [Method(label, build(module)) for label, needs, build in _ADAPTIVE
+            if all(hasattr(module, name) for name in needs)]
 
 
 def geomint_methods(module=geomint, skipped=None):

@@ -14,7 +14,7 @@ from scipy.integrate import solve_ivp
 import geomint
 from geomint.diagnostics import Windows, growth_law, median_time  # noqa: F401 (used by drift, work_precision)
 
-from .compiled import scipy_rhs
+from .compiled import lsoda_rhs, scipy_rhs
 
 #: solve_ivp's absolute tolerance as a fraction of its relative tolerance (states are O(1))
 ATOL_FRACTION = 1e-3
@@ -35,16 +35,44 @@ def not_applicable(method, system, x0, h=1e-3):
     return None
 
 
-def scipy_solution(system, x0, t_span, method, rtol, rhs=None, **options):
-    """``solve_ivp`` on the system's field, returned as a ``geomint.Solution`` (all steps saved)."""
+def scipy_result(system, x0, t_span, method, rtol, rhs=None, **options):
+    """``solve_ivp`` on the system's field (rtol, atol = ``ATOL_FRACTION`` rtol): the raw ``OdeResult``."""
     rhs = scipy_rhs(system) if rhs is None else rhs
-    result = solve_ivp(rhs, t_span, np.asarray(x0, dtype=np.float64), method=method, rtol=rtol,
-                       atol=ATOL_FRACTION * rtol, **options)
+    return solve_ivp(rhs, t_span, np.asarray(x0, dtype=np.float64), method=method, rtol=rtol,
+                     atol=ATOL_FRACTION * rtol, **options)
+
+
+def scipy_solution(system, x0, t_span, method, rtol, rhs=None, result=None, **options):
+    """``solve_ivp`` on the system's field, returned as a ``geomint.Solution`` (all steps saved).
+
+    ``result``: an ``OdeResult`` already computed (by ``scipy_result``, e.g. timed alone) to wrap.
+    """
+    result = scipy_result(system, x0, t_span, method, rtol, rhs, **options) if result is None else result
     X = np.ascontiguousarray(result.y.T)
     return geomint.Solution(
         t=result.t, x=X, H=system.H(X), S=system.S(X), success=bool(result.success), status=int(result.status),
         message=result.message, failed_step=None, n_steps=int(result.t.size - 1), n_newton=int(getattr(result, "nlu", 0)),
         nfev=int(result.nfev), method=f"{method} rtol={rtol:g}",
+    )
+
+
+def lsoda_result(rhs, x0, t_eval, rtol, atol=None):
+    """numbalsoda's compiled LSODA (``rhs`` from ``compiled.lsoda_rhs``) at the times ``t_eval``, by its own
+    interpolant: ``(states (n, 3), success)``; ``atol`` defaults to ``ATOL_FRACTION`` rtol.  Needs the
+    benchmark extra (``pip install geomint[bench]``)."""
+    import numbalsoda
+
+    return numbalsoda.lsoda(rhs.address, np.asarray(x0, dtype=np.float64), np.asarray(t_eval, dtype=np.float64),
+                            rtol=rtol, atol=ATOL_FRACTION * rtol if atol is None else atol)
+
+
+def lsoda_solution(system, t_eval, rtol, result):
+    """``lsoda_result``'s ``result`` as a ``geomint.Solution`` (numbalsoda does not count field evaluations: 0)."""
+    X, success = result
+    return geomint.Solution(
+        t=np.asarray(t_eval, dtype=np.float64), x=X, H=system.H(X), S=system.S(X), success=bool(success),
+        status=0 if success else -1, message="" if success else "numbalsoda reported failure", failed_step=None,
+        n_steps=len(t_eval) - 1, n_newton=0, nfev=0, method=f"numbalsoda LSODA rtol={rtol:g}",
     )
 
 

@@ -1,13 +1,18 @@
 """Work-precision: what accuracy costs in time ("cost to reach error 1e-4, 1e-8, 1e-12").
 
-For each problem, every geomint method runs over a sweep of step sizes and
-every scipy method over a sweep of tolerances (rtol, atol = 1e-3 rtol); the
-global error is ``|x(T) - x_ref(T)|_2``, the cost the median wall time of
-repeated runs after a warm-up (compilation excluded) and the field
-evaluations.  References: the closed form for the oscillator (checked against
-a tight DOP853), DOP853 at rtol = 2.5e-14 elsewhere, whose uncertainty is
-estimated by its distance to DOP853 at rtol = 1e-13 and printed; errors below
-it are not trusted.
+For each problem, every geomint method runs over a sweep of fixed step sizes,
+the adaptive geomint methods over a sweep of tolerances (rtol = atol), every
+scipy method and numbalsoda's compiled LSODA (when the benchmark extra is
+installed) over a sweep of tolerances (rtol, atol = 1e-3 rtol).  The error is
+measured **along the trajectory**: the largest ``|x(t_k) - x_ref(t_k)|_2`` over
+the returned states (every step of the adaptive and scipy runs, about 1000
+states of a fixed-step run, numbalsoda's interpolant at 1001 equally spaced
+times), since a relaxed final state says little.  The cost is the median wall
+time of repeated runs after a warm-up (compilation excluded; the solver call
+only) and the field evaluations.  References: the closed form for the
+oscillator, DOP853 at rtol = 2.5e-14 (dense output) elsewhere; the spread
+between DOP853 at 2.5e-14 and at 1e-13 along the trajectory is printed as the
+reference's uncertainty, and errors below it are not trusted.
 """
 
 from dataclasses import dataclass
@@ -18,13 +23,16 @@ from geomint import plotting
 from geomint.diagnostics import Curve, cost_to_reach, work_precision
 
 from . import problems
-from .compiled import scipy_rhs
-from .methods import BASELINE_RK4, BASELINE_SCIPY, SCIPY_SWEEP, geomint_methods
+from .compiled import lsoda_rhs, scipy_rhs
+from .methods import BASELINE_RK4, BASELINE_SCIPY, SCIPY_SWEEP, adaptive_methods, geomint_methods
 from .report import figure, markdown_table, save
-from .runs import median_time, not_applicable, scipy_solution
+from .runs import lsoda_result, lsoda_solution, median_time, not_applicable, scipy_result, scipy_solution
 
 TARGETS = (1e-4, 1e-8, 1e-12)
 TIGHTEST_RTOL = 2.5e-14
+#: times at which numbalsoda's interpolant is read (and the reference spread measured)
+GRID = 1001
+ERROR_LABEL = "max error along the trajectory"
 
 
 @dataclass(frozen=True)
@@ -47,37 +55,70 @@ def wp_problems():
 
 
 def reference(problem, t_end):
-    """``(x_ref(T), uncertainty, note)``."""
-    tight = scipy_solution(problem.system, problem.x0, (0.0, t_end), "DOP853", TIGHTEST_RTOL).x_final
-    looser = scipy_solution(problem.system, problem.x0, (0.0, t_end), "DOP853", 1e-13).x_final
+    """``(x_ref(t) -> (len(t), 3), uncertainty, note)``: the trajectory errors are measured against."""
+    def dense(rtol):
+        sol = scipy_result(problem.system, problem.x0, (0.0, t_end), "DOP853", rtol, dense_output=True).sol
+        return lambda t: sol(t).T
+
+    tight, looser = dense(TIGHTEST_RTOL), dense(1e-13)
+    grid = np.linspace(0.0, t_end, GRID)
+    spread = float(np.max(np.linalg.norm(looser(grid) - tight(grid), axis=1)))
     if problem.exact is not None:
-        exact = problem.exact(t_end)
-        return exact, float(np.linalg.norm(looser - tight)), (
-            f"closed form; |closed form - DOP853(rtol={TIGHTEST_RTOL:g})| = {np.linalg.norm(exact - tight):.2g}")
-    spread = float(np.linalg.norm(looser - tight))
-    return tight, spread, f"DOP853 rtol={TIGHTEST_RTOL:g}; |ref - DOP853(rtol=1e-13)| = {spread:.2g}"
+        off = float(np.max(np.linalg.norm(problem.exact(grid) - tight(grid), axis=1)))
+        return problem.exact, spread, (f"closed form; max over t of |closed form - DOP853(rtol={TIGHTEST_RTOL:g})| = "
+                                       f"{off:.2g}")
+    return tight, spread, (f"DOP853 rtol={TIGHTEST_RTOL:g}, dense output; max over t of |ref - DOP853(rtol=1e-13)| "
+                           f"= {spread:.2g}")
 
 
-def geomint_curve(problem, method, settings, x_ref):
-    return work_precision(problem.system, problem.x0, settings.t_end, method.integrator, settings.steps, x_ref,
-                          settings.repeats, settings.point_budget, settings.sweep_budget, label=method.label)
+def along(x_ref, sol):
+    """The largest distance to the reference over the returned states."""
+    return float(np.max(np.linalg.norm(sol.x - x_ref(sol.t), axis=1)))
 
 
-def scipy_curve(problem, name, settings, x_ref, rhs):
-    curve = Curve(name, "scipy")
-    t_span = (0.0, settings.t_end)
+def geomint_curve(problem, method, settings, x_ref, adaptive=False):
+    steps = None if adaptive else settings.steps
+    tolerances = [10.0 ** -k for k in settings.exponents] if adaptive else None
+    return work_precision(problem.system, problem.x0, settings.t_end, method.integrator, steps, x_ref,
+                          settings.repeats, settings.point_budget, settings.sweep_budget, label=method.label,
+                          tolerances=tolerances)
+
+
+def tolerance_curve(label, settings, solve_at, x_ref):
+    """A sweep over rtol = 10^-k: ``solve_at(rtol) -> (timed call, wrap(result) -> Solution)``."""
+    curve = Curve(label, "scipy")
     for exponent in settings.exponents:
         rtol = 10.0 ** -exponent
-        seconds, solution = median_time(
-            lambda: scipy_solution(problem.system, problem.x0, t_span, name, rtol, rhs=rhs),
-            settings.repeats, settings.point_budget)
-        curve.wall.append(seconds)
-        curve.nfev.append(solution.nfev)
-        curve.error.append(float(np.linalg.norm(solution.x_final - x_ref)))
-        curve.setting.append(rtol)
+        call, wrap = solve_at(rtol)
+        seconds, result = median_time(call, settings.repeats, settings.point_budget)
+        solution = wrap(result)
+        if solution.success:
+            curve.wall.append(seconds)
+            curve.nfev.append(solution.nfev if solution.nfev else np.nan)
+            curve.error.append(along(x_ref, solution))
+            curve.setting.append(rtol)
         if seconds > settings.scipy_cutoff:
             break
     return curve
+
+
+def scipy_curve(problem, name, settings, x_ref, rhs):
+    span = (0.0, settings.t_end)
+    return tolerance_curve(name, settings, lambda rtol: (
+        lambda: scipy_result(problem.system, problem.x0, span, name, rtol, rhs=rhs),
+        lambda result: scipy_solution(problem.system, problem.x0, span, name, rtol, result=result)), x_ref)
+
+
+def lsoda_curve(problem, settings, x_ref):
+    """numbalsoda's LSODA, or None without the benchmark extra."""
+    try:
+        rhs = lsoda_rhs(problem.system)
+    except ImportError:
+        return None
+    t_eval = np.linspace(0.0, settings.t_end, GRID)
+    return tolerance_curve("numbalsoda LSODA", settings, lambda rtol: (
+        lambda: lsoda_result(rhs, problem.x0, t_eval, rtol),
+        lambda result: lsoda_solution(problem.system, t_eval, rtol, result)), x_ref)
 
 
 def cost_table(curves):
@@ -111,7 +152,7 @@ def fastest_structure_preserving(curves, target=1e-8):
 
 def plot(problem, curves, uncertainty, axes):
     for ax, cost in zip(axes, ("wall", "nfev")):
-        plotting.work_precision(curves, ax, cost=cost, legend=False)
+        plotting.work_precision(curves, ax, cost=cost, legend=False, error=ERROR_LABEL)
         ax.axhline(max(uncertainty, 1e-16), color="grey", lw=0.8, ls=":")
         ax.set_title(f"{problem.title} (solid: exact H and monotone S)", fontsize=9)
 
@@ -120,12 +161,24 @@ def run_problem(problem, settings, methods, log=print):
     x_ref, uncertainty, note = reference(problem, settings.t_end)
     curves = [geomint_curve(problem, m, settings, x_ref) for m in methods
               if not_applicable(m.integrator, problem.system, problem.x0) is None]
-    log(f"  {problem.name}: geomint sweeps done")
+    log(f"  {problem.name}: geomint fixed-step sweeps done")
+    curves += [geomint_curve(problem, m, settings, x_ref, adaptive=True) for m in adaptive_methods()]
+    log(f"  {problem.name}: geomint adaptive sweeps done")
     rhs = scipy_rhs(problem.system)
     rhs(0.0, problem.x0)
     curves += [scipy_curve(problem, name, settings, x_ref, rhs) for name in SCIPY_SWEEP]
-    log(f"  {problem.name}: scipy sweeps done")
+    lsoda = lsoda_curve(problem, settings, x_ref)
+    curves += [] if lsoda is None else [lsoda]
+    log(f"  {problem.name}: scipy and numbalsoda sweeps done")
     return curves, uncertainty, note
+
+
+def _has_numbalsoda():
+    try:
+        import numbalsoda  # noqa: F401
+    except ImportError:
+        return False
+    return True
 
 
 def main(quick=False, out=None, log=print):
@@ -133,12 +186,17 @@ def main(quick=False, out=None, log=print):
     settings = QUICK if quick else FULL
     methods = geomint_methods()
     parts = ["## Work-precision: what accuracy costs",
-             f"Global error at T = {settings.t_end:g} against median wall time ({settings.repeats} repeats after a "
-             "warm-up run, so compilation is excluded) and against field evaluations. geomint: fixed steps "
-             f"h = T/n, n in {list(settings.steps)}; scipy: rtol = 10^-k for k in {list(settings.exponents)}, "
-             f"atol = 1e-3 rtol; a geomint sweep stops refining after {settings.sweep_budget:g} s. The dotted line "
-             f"is the reference's uncertainty. Ratios are to the same run's {BASELINE_SCIPY} and {BASELINE_RK4} "
-             "(>1: slower)."]
+             f"Error along the trajectory up to T = {settings.t_end:g} (the largest distance to the reference over "
+             "the returned states: every step of adaptive and scipy runs, ~1000 states of a fixed-step run, "
+             f"numbalsoda's interpolant at {GRID} equally spaced times) against median wall time ({settings.repeats} "
+             "repeats after a warm-up run, so compilation is excluded; the solver call only) and against field "
+             f"evaluations (numbalsoda does not count them). geomint: fixed steps h = T/n, n in {list(settings.steps)}, "
+             "and adaptive steps (rows \"adaptive\") with rtol = atol = 10^-k; scipy and numbalsoda: rtol = 10^-k, "
+             f"atol = 1e-3 rtol; k in {list(settings.exponents)}. A geomint sweep stops refining after "
+             f"{settings.sweep_budget:g} s. The dotted line is the reference's uncertainty. Ratios are to the same "
+             f"run's {BASELINE_SCIPY} and {BASELINE_RK4} (>1: slower)." + (
+                 "" if _has_numbalsoda() else " numbalsoda is not installed in this run (`pip install "
+                 "geomint[bench]`, which needs a Fortran compiler to build), so its curves are missing.")]
     targets = {}
     out_kw = {} if out is None else {"out": out}
     for problem in wp_problems():

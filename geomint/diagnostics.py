@@ -11,8 +11,9 @@ scipy runs are measured the same way.
 - ``S_rises(sol)``: the saved steps where S rose by more than round-off.
 - ``observed_order`` / ``measured_order``: the slope of the error against h
   with the round-off plateau excluded (the GeometricIntegrators.jl audit habit).
-- ``work_precision`` / ``cost_to_reach``: error against wall time and field
-  evaluations over a sweep of step sizes, and the cost to reach an error.
+- ``work_precision`` / ``cost_to_reach``: error (at T or along the trajectory)
+  against wall time and field evaluations over a sweep of step sizes or
+  tolerances, and the cost to reach an error.
 """
 
 import math
@@ -213,8 +214,8 @@ def median_time(run, repeats, budget=2.0):
 
 
 def work_precision(system, x0, t_end, method, step_counts, reference, repeats=3, point_budget=2.0,
-                   sweep_budget=math.inf, label=None):
-    """Global error ``|x(T) - reference|_2`` against cost, over fixed steps ``h = T / n``.
+                   sweep_budget=math.inf, label=None, *, tolerances=None, samples=1000):
+    """Error against cost over a sweep of fixed steps ``h = T / n`` or of tolerances ``rtol = atol``.
 
     Parameters
     ----------
@@ -222,34 +223,59 @@ def work_precision(system, x0, t_end, method, step_counts, reference, repeats=3,
         As for ``geomint.solve``.
     t_end : float
         The end time ``T``.
-    step_counts : sequence of int
-        Numbers of steps ``n``, coarse to fine.
-    reference : (3,) array
-        ``x(T)`` (e.g. ``reference_solution``).
+    step_counts : sequence of int, or None
+        Numbers of fixed steps ``n``, coarse to fine; ``None`` with ``tolerances``.
+    reference : (3,) array, or callable
+        ``x(T)`` (e.g. ``reference_solution``): the error is ``|x(T) - reference|_2``.
+        Or ``reference(t) -> (len(t), 3)`` (e.g. a dense DOP853 solution's ``sol``):
+        the error is measured **along the trajectory**, ``max_k |x_k - reference(t_k)|_2``
+        over the returned states (fixed steps save about ``samples`` of them, adaptive
+        runs every accepted step).
     repeats, point_budget
         Median wall time over ``repeats`` runs, fewer past ``point_budget`` seconds.
     sweep_budget : float
         Stop refining after this many seconds; refining stops also once two
         consecutive errors are below 1e-13 (round-off).
+    tolerances : sequence of float, optional
+        Adaptive runs (``h=None``) with ``rtol = atol`` = each value, loose to tight.
+    samples : int
+        Saved states per fixed-step run when the error is measured along the trajectory.
 
-    Returns a ``Curve`` (failed runs are left out).
+    Returns a ``Curve`` whose ``setting`` holds h or rtol (failed runs are left out).
     """
     method = resolve(method)
+    if (step_counts is None) == (tolerances is None):
+        raise ValueError("work_precision: give exactly one of `step_counts` (fixed steps) and `tolerances` "
+                         f"(adaptive steps); got step_counts={step_counts!r}, tolerances={tolerances!r}.")
+    along = callable(reference)
     curve = Curve(label or method.name, "geomint", bool(method.energy_exact and method.dissipative))
-    solve(system, x0, (0.0, t_end), t_end / 4, method=method, save_every=None)  # warm-up: compile
+
+    def run(setting):
+        if tolerances is not None:
+            return solve(system, x0, (0.0, t_end), rtol=setting, atol=setting, method=method,
+                         save_every=1 if along else None)
+        n = round(t_end / setting)
+        return solve(system, x0, (0.0, t_end), setting, method=method,
+                     save_every=max(1, n // samples) if along else None)
+
+    def error(sol):
+        if along:
+            return float(np.max(np.linalg.norm(sol.x - reference(sol.t), axis=1)))
+        return float(np.linalg.norm(sol.x_final - reference))
+
+    settings = tolerances if tolerances is not None else [t_end / n for n in step_counts]
+    run(settings[0])  # warm-up: compile
     plateau, start = 0, time.perf_counter()
-    for n in step_counts:
+    for setting in settings:
         if time.perf_counter() - start > sweep_budget:
             break
-        h = t_end / n
-        seconds, sol = median_time(lambda: solve(system, x0, (0.0, t_end), h, method=method, save_every=None),
-                                   repeats, point_budget)
+        seconds, sol = median_time(lambda: run(setting), repeats, point_budget)
         if not sol.success:
             continue
         curve.wall.append(seconds)
         curve.nfev.append(sol.nfev)
-        curve.error.append(float(np.linalg.norm(sol.x_final - reference)))
-        curve.setting.append(h)
+        curve.error.append(error(sol))
+        curve.setting.append(setting)
         plateau = plateau + 1 if curve.error[-1] < 1e-13 else 0
         if plateau == 2:
             break

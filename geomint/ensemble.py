@@ -9,6 +9,10 @@ trajectory runs exactly the step loop of ``geomint.solve``, so trajectory
 own trajectory; its rows up to the failure are kept, the rest padded with NaN
 (``rows`` says how many are valid), and its status and message are kept.
 
+Steps are fixed (``h``) or adaptive (``h=None`` with ``rtol``/``atol``, as in
+``solve``); adaptive runs keep the states at ``t_eval`` (default: the start and
+the end), so every trajectory has the same rows.
+
 ``backend="dask"`` ships chunks of trajectories to a ``dask.distributed``
 client (``pip install geomint[dask]``); each worker runs the same batch
 kernel, so the arrays equal the local ones bit for bit, and a worker lost
@@ -24,13 +28,15 @@ import numba
 import numpy as np
 
 from . import _user_errors, _validate
+from ._kernels import adaptive as _adaptive
 from ._kernels import batch as _batch
 from ._kernels import driver as _driver
 from ._kernels import layout as _layout
 from .integrators import resolve
 from .solution import Solution
 from .solve import (
-    _check_memory, _check_save_every, _check_span, _check_step, _interrupts, _message, _raised_message, step_count,
+    _check_memory, _check_save_every, _check_span, _check_t_eval, _interrupts, _message, _raised_message, _reversible,
+    check_step_or_control, step_count,
 )
 from .system import MetriplecticSystem
 
@@ -63,8 +69,8 @@ class Ensemble:
         The failed step, 0 where none failed.
     messages : tuple of str
         What happened to each trajectory.
-    n_steps, n_newton, nfev : (n,) int arrays
-        Work per trajectory.
+    n_steps, n_newton, nfev, n_rejected : (n,) int arrays
+        Work per trajectory (rejected: attempted adaptive steps not kept).
     eps : (n,) array
         eps of each trajectory.
     params : (n, p) array
@@ -83,6 +89,7 @@ class Ensemble:
     n_steps: np.ndarray
     n_newton: np.ndarray
     nfev: np.ndarray
+    n_rejected: np.ndarray
     eps: np.ndarray
     params: np.ndarray
     method: object
@@ -107,7 +114,8 @@ class Ensemble:
         return Solution(t=self.t[i, :n].copy(), x=self.x[i, :n].copy(), H=self.H[i, :n].copy(),
                         S=self.S[i, :n].copy(), success=status == 0, status=status, message=self.messages[i],
                         failed_step=int(self.failed_step[i]) or None, n_steps=int(self.n_steps[i]),
-                        n_newton=int(self.n_newton[i]), nfev=int(self.nfev[i]), method=self.method)
+                        n_newton=int(self.n_newton[i]), nfev=int(self.nfev[i]), method=self.method,
+                        n_rejected=int(self.n_rejected[i]))
 
     def to_xarray(self, param_names=None):
         """An ``xarray.Dataset`` (optional dependency: ``pip install geomint[xarray]``).
@@ -131,9 +139,10 @@ class Ensemble:
                            "S": (("trajectory", "time"), self.S)}, coords=coords)
 
 
-def solve_ensemble(system, X0, t_span, h, method="gonzalez", *, params=None, eps=None, save_every=1, progress=None,
-                   backend="local", client=None, chunk=CHUNK, threads=None):
-    """Integrate every start ``X0[i]`` with a fixed step, in one compiled batch kernel over all cores.
+def solve_ensemble(system, X0, t_span, h=None, method="gonzalez", *, rtol=None, atol=None, first_step=None,
+                   max_step=None, t_eval=None, params=None, eps=None, save_every=1, progress=None, backend="local",
+                   client=None, chunk=CHUNK, threads=None):
+    """Integrate every start ``X0[i]`` in one compiled batch kernel over all cores.
 
     Parameters
     ----------
@@ -141,8 +150,19 @@ def solve_ensemble(system, X0, t_span, h, method="gonzalez", *, params=None, eps
     X0 : array_like, shape (n, 3)
         Starts.  A row that is not finite, or where H or S is not finite, is
         refused for that trajectory only (``status`` -5); the others run.
-    t_span, h, method, save_every
-        As in ``geomint.solve``, shared by all trajectories.
+    t_span, h, method
+        As in ``geomint.solve``, shared by all trajectories; ``h=None`` (the
+        default) takes adaptive steps, each trajectory its own.
+    rtol, atol, first_step, max_step
+        Adaptive steps only, as in ``geomint.solve`` (the first step, when not
+        given, is chosen per trajectory by the same rule).
+    t_eval : array_like, optional
+        Times to keep, as in ``geomint.solve``: steps land on them.  Adaptive
+        runs keep the states at ``t_eval``, or at the start and ``t_span``'s end
+        when it is not given.
+    save_every : int or None
+        Fixed steps without ``t_eval``: keep every ``save_every``-th step (None:
+        the start and the end), as in ``geomint.solve``.  Otherwise 1 or None.
     params : array_like, shape (n, p), optional
         Parameters of each trajectory (default: the system's, for all).
     eps : array_like, shape (n,), optional
@@ -161,9 +181,10 @@ def solve_ensemble(system, X0, t_span, h, method="gonzalez", *, params=None, eps
     Returns
     -------
     Ensemble
-        Trajectory ``i`` equals ``geomint.solve(system, X0[i], ...)`` bit for
-        bit (run with its own params and eps).  Ctrl-C stops between chunks:
-        trajectories not run have status 3.
+        Trajectory ``i`` equals ``geomint.solve(system, X0[i], ...)`` with the
+        same arguments bit for bit (run with its own params and eps; for
+        adaptive runs without ``t_eval``, ``solve(..., save_every=None)``).
+        Ctrl-C stops between chunks: trajectories not run have status 3.
     """
     if not isinstance(system, MetriplecticSystem):
         raise TypeError(f"`system` must be a geomint.MetriplecticSystem; got {type(system).__name__}.")
@@ -186,24 +207,37 @@ def solve_ensemble(system, X0, t_span, h, method="gonzalez", *, params=None, eps
                          "eps = 0 for every trajectory.")
     integrator.check_system(system)
     t0, t_end = _check_span(t_span)
-    h = _check_step(h, t0, t_end)
-    n_steps = step_count(t0, t_end, h)
-    save_every = _check_save_every(save_every, n_steps)
-    rows = n_steps // save_every + 2
-    _check_memory(rows * n)
+    method_data = integrator.lower(system)
+    if t_end < t0 and not _reversible(method_data):
+        raise ValueError(f"`t_span` = {t_span!r} runs backward, which {integrator!r} cannot: its S safeguard or "
+                         "projection keeps S from rising, as S must backward. Use Gonzalez(), another discrete "
+                         "gradient, RK4() or a Runge-Kutta pair.")
+    t_eval = None if t_eval is None else _check_t_eval(t_eval, t0, t_end)
+    h, control = check_step_or_control(integrator, h, rtol, atol, first_step, max_step, t0, t_end)
+    if h is not None and t_eval is None:
+        n_steps = step_count(t0, t_end, h)
+        save_every = _check_save_every(save_every, n_steps)
+        plan = _FixedPlan(t0, t_end, h, n_steps, save_every)
+    else:
+        if save_every is not None and (isinstance(save_every, (bool, np.bool_)) or save_every != 1):
+            raise ValueError("`save_every` must be 1 or None with adaptive steps (h=None) or t_eval (the rows are "
+                             f"the times of t_eval, or the start and the end); got {save_every!r}.")
+        plan = _MarchPlan.of(integrator, t0, t_end, h, control, t_eval)
+    _check_memory(plan.rows * n)
     if backend == "dask":
-        return _on_dask(client, system, X0, t_span, h, integrator, params, eps, save_every, progress, chunk,
-                        threads if threads_given else 1)
-    return _run_local(system, X0, t0, t_end, h, n_steps, integrator, params, eps, save_every, rows, progress, chunk,
-                      threads)
+        return _on_dask(client, system, X0, t_span, integrator, params, eps, progress, chunk,
+                        threads if threads_given else 1,
+                        dict(h=h, rtol=rtol, atol=atol, first_step=first_step, max_step=max_step, t_eval=t_eval,
+                             save_every=save_every))
+    return _run_local(system, X0, integrator, method_data, params, eps, plan, progress, chunk, threads)
 
 
-def sweep(system, X0, t_span, h, method="gonzalez", *, eps=None, params=None, **options):
+def sweep(system, X0, t_span, h=None, method="gonzalez", *, eps=None, params=None, **options):
     """Every start of ``X0`` for every combination of ``eps`` (a sequence) and ``params`` (a sequence of parameter
     vectors): one ``solve_ensemble`` over the grid, trajectories ordered eps-major, then params, then starts.
 
-    ``options`` go to ``solve_ensemble`` (``save_every``, ``progress``, ``backend``...).  The result's
-    ``eps`` and ``params`` say which point of the grid each trajectory belongs to.
+    ``h`` and ``options`` go to ``solve_ensemble`` (``rtol``, ``t_eval``, ``save_every``, ``progress``,
+    ``backend``...).  The result's ``eps`` and ``params`` say which point of the grid each trajectory belongs to.
     """
     X0 = _starts([X0] if np.ndim(X0) == 1 else X0)
     eps_values = [system.eps] if eps is None else list(_validate.reals("eps", eps))
@@ -273,14 +307,111 @@ def _refused(system, X0, params):
 
 
 # -- the local backend -------------------------------------------------------------------------------
-def _run_local(system, X0, t0, t_end, h, n_steps, integrator, params, eps, save_every, rows, progress, chunk, threads):
+@dataclass(frozen=True)
+class _FixedPlan:
+    """Fixed steps on the grid ``t0 + k h`` (``batch.integrate_batch``, as ``solve``'s fixed-step run)."""
+
+    t0: float
+    t_end: float
+    h: float
+    n_steps: int
+    save_every: int
+
+    @property
+    def rows(self):
+        return self.n_steps // self.save_every + 2
+
+    def grid(self):
+        h = float(np.copysign(self.h, self.t_end - self.t0))
+        return _driver.Grid(self.t0, h, self.n_steps, (self.t_end - self.t0) - (self.n_steps - 1) * h, self.save_every)
+
+    def start(self, n):
+        return ()  # no per-trajectory clock
+
+    def run(self, system, method_data, views, first, stride):
+        p, o, e, st, wo, tt, xx, HH, SS, co, re = views
+        _batch.integrate_batch(system.model, p, o, e, system.hamiltonian, method_data, st, wo, self.n_steps,
+                               self.grid(), tt, xx, HH, SS, co, re, first, stride)
+
+    def unfinished(self, counters, clocks, part):
+        return False
+
+    def where_failed(self, i, t, rows, counters, clocks):
+        """``(time the failed step started from, step)`` for the failure message."""
+        h = float(np.copysign(self.h, self.t_end - self.t0))
+        failed = int(counters[i, _layout.FAILED_STEP]) if counters[i, _layout.STATUS] < 0 else 1
+        return self.t0 + (max(failed, 1) - 1) * h, h
+
+    def kept(self, t, rows, status):
+        return None
+
+
+@dataclass(frozen=True)
+class _MarchPlan:
+    """Adaptive steps, or fixed steps landing on ``t_eval`` (``batch.march_batch``, as ``solve``'s marching run):
+    rows at the stops only."""
+
+    t0: float
+    stops: np.ndarray
+    control: object
+    t_eval: np.ndarray | None
+
+    #: attempts per trajectory per kernel call (between calls: Ctrl-C)
+    BUDGET = 100_000
+
+    @classmethod
+    def of(cls, integrator, t0, t_end, h, control, t_eval):
+        stops = [t for t in (t_eval if t_eval is not None else []) if t != t0] or [t_end]
+        stops = np.array(stops if stops[-1] == t_end else stops + [t_end], dtype=np.float64)
+        if control is None:  # fixed steps from each stop on
+            control = _adaptive.Control(False, float(np.copysign(h, t_end - t0)), 1.0, 1.0, np.inf,
+                                        _layout.NO_ESTIMATE, 1.0, float(integrator.order), False)
+        else:  # a first step of 0 is chosen per trajectory (adaptive.first_step)
+            first = 0.0 if control.h is None else float(np.copysign(control.h, t_end - t0))
+            control = control._replace(h=first, save_all=False)
+        return cls(t0, stops, control, t_eval)
+
+    @property
+    def rows(self):
+        return len(self.stops) + 2
+
+    def start(self, n):
+        clocks = np.zeros((n, _layout.N_CLOCK))
+        clocks[:, _layout.C_T] = clocks[:, _layout.C_BASE] = self.t0
+        clocks[:, _layout.C_H] = self.control.h
+        return (clocks,)
+
+    def run(self, system, method_data, views, first, stride):
+        p, o, e, st, wo, tt, xx, HH, SS, co, re, cl = views
+        _batch.march_batch(system.model, p, o, e, system.hamiltonian, method_data, self.control, st, wo, cl,
+                           self.stops, self.BUDGET, tt, xx, HH, SS, co, re, first, stride)
+
+    def unfinished(self, counters, clocks, part):
+        return bool(np.any((counters[part, _layout.STATUS] == _layout.OK)
+                           & (clocks[part, _layout.C_STOP] < len(self.stops))))
+
+    def where_failed(self, i, t, rows, counters, clocks):
+        return (float(t[i, rows[i] - 1]) if counters[i, _layout.STATUS] < 0 else 0.0), float(clocks[i, _layout.C_H])
+
+    def kept(self, t, rows, status):
+        """Per trajectory, the rows ``solve`` returns: the times of ``t_eval`` (and the last state reached by a
+        failed run), or all rows (the start and the end) without ``t_eval``."""
+        if self.t_eval is None:
+            return None
+        keep = np.isin(t, self.t_eval) & (np.arange(t.shape[1]) < rows[:, None])
+        failed = (status != _layout.OK) & (rows > 0)
+        keep[np.flatnonzero(failed), rows[failed] - 1] = True
+        return keep
+
+
+def _run_local(system, X0, integrator, method_data, params, eps, plan, progress, chunk, threads):
     n = len(X0)
-    method_data = integrator.lower(system)
     slots = getattr(method_data, "slots", 1)
     states = np.zeros((n, _layout.N_STATE))
     states[:, :3] = np.where(np.isfinite(X0), X0, 0.0)
+    states[:, _layout.STATE_ANCHOR] = np.nan  # H at the start (as solve)
     works = np.zeros((n, slots * _layout.WORK))
-    t, x, H, S = _batch.empty_outputs(n, rows)
+    t, x, H, S = _batch.empty_outputs(n, plan.rows)
     counters = np.zeros((n, _layout.N_COUNTERS), dtype=np.int64)
     residuals = np.zeros((n, 1))
     if np.all(params == system.params):
@@ -289,8 +420,8 @@ def _run_local(system, X0, t0, t_end, h, n_steps, integrator, params, eps, save_
         origins = np.array([system._origin(p) for p in params])
     reasons = _refused(system, X0, params)
     counters[[r is not None for r in reasons], _layout.STATUS] = INVALID_START
-    grid = _driver.Grid(t0, h, n_steps, (t_end - t0) - (n_steps - 1) * h, save_every)
-    arrays = (states, works, t, x, H, S, counters, residuals)
+    arrays = (states, works, t, x, H, S, counters, residuals) + plan.start(n)
+    clocks = arrays[8] if len(arrays) > 8 else None
     raised_by = {}
     threads = max(1, min(threads, chunk))
     with _user_errors.catching_everywhere() as raised, _interrupts() as interrupted, \
@@ -303,44 +434,56 @@ def _run_local(system, X0, t0, t_end, h, n_steps, integrator, params, eps, save_
                 continue
             snapshot = [a[part].copy() for a in arrays]
             views = [a[part] for a in (params, origins, eps)] + [a[part] for a in arrays]
-
-            def run(first, views=views):
-                p, o, e, st, wo, tt, xx, HH, SS, co, re = views
-                _batch.integrate_batch(system.model, p, o, e, system.hamiltonian, method_data, st, wo, n_steps, grid,
-                                       tt, xx, HH, SS, co, re, first, threads)
-
-            list(pool.map(run, range(threads)))
+            while True:
+                list(pool.map(lambda first: plan.run(system, method_data, views, first, threads), range(threads)))
+                if raised or interrupted or not plan.unfinished(counters, clocks, part):
+                    break
             if raised:  # a user function raised on a worker thread: rerun the chunk where the hook can count it
                 for array, saved in zip(arrays, snapshot):
                     array[part] = saved
-                raised_by.update(_rerun_serially(system, params, origins, eps, method_data, grid, arrays, part))
+                raised_by.update(_rerun_serially(system, method_data, plan, params, origins, eps, arrays, part))
                 raised.clear()
+            elif interrupted and plan.unfinished(counters, clocks, part):
+                going = (counters[part, _layout.STATUS] == _layout.OK)
+                counters[part, _layout.STATUS] = np.where(going, _layout.INTERRUPTED, counters[part, _layout.STATUS])
             if progress is not None:
                 progress(part.stop)
-    return _collect(system, integrator, X0, t0, h, params, eps, arrays, reasons, raised_by)
+    return _collect(system, integrator, X0, params, eps, plan, arrays, reasons, raised_by)
 
 
-def _rerun_serially(system, params, origins, eps, method_data, grid, arrays, part):
+def _rerun_serially(system, method_data, plan, params, origins, eps, arrays, part):
     """The chunk's trajectories one by one in this thread, each counting its own user-function exceptions."""
-    states, works, t, x, H, S, counters, residuals = arrays
+    counters = arrays[6]
     raised_by = {}
     for i in range(part.start, part.stop):
         if counters[i, _layout.STATUS] != _layout.OK:
             continue
-        model = system.model._replace(params=params[i], origin=origins[i])
+        one = slice(i, i + 1)
+        views = [a[one] for a in (params, origins, eps)] + [a[one] for a in arrays]
         with _user_errors.catching(counters[i]) as raised:
-            _driver.integrate(model, eps[i], system.hamiltonian, method_data, states[i], works[i], 0, grid.n_steps,
-                              grid, _driver.Output(t[i], x[i], H[i], S[i], counters[i], residuals[i]))
+            while True:
+                plan.run(system, method_data, views, 0, 1)
+                if raised or not plan.unfinished(counters, arrays[8] if len(arrays) > 8 else None, one):
+                    break
         if raised:
             raised_by[i] = raised[0]
     return raised_by
 
 
-def _collect(system, integrator, X0, t0, h, params, eps, arrays, reasons, raised_by):
-    _, _, t, x, H, S, counters, residuals = arrays
+def _collect(system, integrator, X0, params, eps, plan, arrays, reasons, raised_by):
+    t, x, H, S, counters, residuals = arrays[2:8]
+    clocks = arrays[8] if len(arrays) > 8 else None
     n = len(X0)
     row_count = counters[:, _layout.ROWS].copy()
     status = counters[:, _layout.STATUS].copy()
+    keep = plan.kept(t, row_count, status)
+    if keep is not None:  # the rows of t_eval, first in each trajectory
+        order = np.argsort(~keep, axis=1, kind="stable")
+        t, H, S = (np.take_along_axis(a, order, axis=1) for a in (t, H, S))
+        x = np.take_along_axis(x, order[:, :, None], axis=1)
+        row_count = np.count_nonzero(keep, axis=1)
+        for a in (t, H, S, x):
+            a[np.arange(a.shape[1]) >= row_count[:, None]] = np.nan
     used = max(1, int(row_count.max()))
     messages = []
     for i in range(n):
@@ -355,29 +498,31 @@ def _collect(system, integrator, X0, t0, h, params, eps, arrays, reasons, raised
         what = None
         if status[i] == _layout.USER_RAISED:
             own = system if np.array_equal(params[i], system.params) else None
+            h = plan.where_failed(i, arrays[2], counters[:, _layout.ROWS], counters, clocks)[1]
             what = (_raised_message(own, x[i, row_count[i] - 1], h, [raised_by.get(i)]) if own is not None else
                     f"a user function raised {raised_by.get(i)!r}")
         failed = int(counters[i, _layout.FAILED_STEP]) if status[i] < 0 else None
-        t_from = t0 + ((failed or 1) - 1) * h
+        t_from, h = plan.where_failed(i, arrays[2], counters[:, _layout.ROWS], counters, clocks)
         messages.append(_message(int(status[i]), failed, t[i, :row_count[i]], t_from, h, counters[i],
                                  residuals[i, 0], integrator, what))
     return Ensemble(
         t=t[:, :used], x=x[:, :used], H=H[:, :used], S=S[:, :used], rows=row_count, status=status,
         failed_step=np.where(status < 0, counters[:, _layout.FAILED_STEP], 0), messages=tuple(messages),
         n_steps=counters[:, _layout.STEPS].copy(), n_newton=counters[:, _layout.NEWTON_ITERATIONS].copy(),
-        nfev=counters[:, _layout.FIELD_EVALUATIONS].copy(), eps=eps, params=params, method=integrator)
+        nfev=counters[:, _layout.FIELD_EVALUATIONS].copy(), n_rejected=counters[:, _layout.REJECTED].copy(), eps=eps,
+        params=params, method=integrator)
 
 
 # -- the Dask backend --------------------------------------------------------------------------------
-def _on_dask(client, system, X0, t_span, h, integrator, params, eps, save_every, progress, chunk, threads):
+def _on_dask(client, system, X0, t_span, integrator, params, eps, progress, chunk, threads, options):
     try:
         from distributed import as_completed, default_client
     except ImportError:
         raise ImportError("backend='dask' needs dask.distributed: pip install geomint[dask]") from None
     client = default_client() if client is None else client
     parts = [slice(b, min(len(X0), b + chunk)) for b in range(0, len(X0), chunk)]
-    futures = [client.submit(_dask_task, system, X0[p], t_span, h, integrator, params[p], eps[p], save_every,
-                             threads, pure=False) for p in parts]
+    futures = [client.submit(_dask_task, system, X0[p], t_span, integrator, params[p], eps[p], threads, options,
+                             pure=False) for p in parts]
     size = {future.key: p.stop - p.start for future, p in zip(futures, parts)}
     done = 0
     for future in as_completed(futures):
@@ -387,10 +532,10 @@ def _on_dask(client, system, X0, t_span, h, integrator, params, eps, save_every,
     return _concatenate(client.gather(futures), integrator)
 
 
-def _dask_task(system, X0, t_span, h, integrator, params, eps, save_every, threads):
-    """One chunk on a Dask worker: the local batch kernel."""
-    return solve_ensemble(system, X0, t_span, h, integrator, params=params, eps=eps, save_every=save_every,
-                          chunk=len(X0), threads=threads)
+def _dask_task(system, X0, t_span, integrator, params, eps, threads, options):
+    """One chunk on a Dask worker: the local batch kernel (``options``: the step and output keywords)."""
+    return solve_ensemble(system, X0, t_span, method=integrator, params=params, eps=eps, chunk=len(X0),
+                          threads=threads, **options)
 
 
 def _concatenate(parts, integrator):
@@ -405,5 +550,6 @@ def _concatenate(parts, integrator):
         t=np.concatenate([pad(p.t) for p in parts]), x=np.concatenate([pad(p.x) for p in parts]),
         H=np.concatenate([pad(p.H) for p in parts]), S=np.concatenate([pad(p.S) for p in parts]),
         **{name: np.concatenate([getattr(p, name) for p in parts])
-           for name in ("rows", "status", "failed_step", "n_steps", "n_newton", "nfev", "eps", "params")},
+           for name in ("rows", "status", "failed_step", "n_steps", "n_newton", "nfev", "n_rejected", "eps",
+                        "params")},
         messages=tuple(m for p in parts for m in p.messages), method=integrator)

@@ -379,10 +379,11 @@ def drift_windows(series, ax=None, *, legend=True, law_in_key=True, linestyles=N
                    legend and "best", len(series))
 
 
-def work_precision(curves, ax=None, *, cost="wall", legend=True):
-    """Global error against cost for ``geomint.diagnostics.Curve`` objects, one line and key each.
+def work_precision(curves, ax=None, *, cost="wall", legend=True, error="global error |x(T) - x_ref(T)|"):
+    """Error against cost for ``geomint.diagnostics.Curve`` objects, one line and key each.
 
-    ``cost`` is ``"wall"`` (median seconds) or ``"nfev"`` (field evaluations).
+    ``cost`` is ``"wall"`` (median seconds) or ``"nfev"`` (field evaluations);
+    ``error`` labels the vertical axis (what the curves' errors measure).
     Structure-preserving methods (exact H, S never rising) are drawn solid.
     """
     if cost not in ("wall", "nfev"):
@@ -394,7 +395,7 @@ def work_precision(curves, ax=None, *, cost="wall", legend=True):
         line["linestyle"] = "-" if curve.structure_preserving else "--"
         ax.loglog(getattr(curve, cost), curve.error, markersize=4, linewidth=1.2, label=curve.label, **line)
     return _finish(ax, "wall time [s] (median)" if cost == "wall" else "field evaluations",
-                   "global error |x(T) - x_ref(T)|", "work-precision (solid: exact H and monotone S)",
+                   error, "work-precision (solid: exact H and monotone S)",
                    legend and "lower left", len(curves))
 
 

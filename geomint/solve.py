@@ -165,19 +165,12 @@ def solve(system, x0, t_span, h=None, method="gonzalez", save_every=1, progress=
         raise TypeError(f"`dense_output` must be True or False; got {dense_output!r}.")
     events = None if events is None else Events(events)
     t_eval = None if t_eval is None else _check_t_eval(t_eval, t0, t_end)
-    if h is not None:
-        given = [name for name, v in (("rtol", rtol), ("atol", atol), ("first_step", first_step),
-                                      ("max_step", max_step)) if v is not None]
-        if given:
-            raise ValueError(f"`h` = {h!r} fixes the step, so `{given[0]}` cannot be given too; pass h=None for "
-                             "adaptive steps with rtol/atol.")
-        h = _check_step(h, t0, t_end)
+    h, control = check_step_or_control(integrator, h, rtol, atol, first_step, max_step, t0, t_end)
     if h is None or t_eval is not None or events is not None or dense_output:
         if checkpoint is not None or resume is not None:
             raise ValueError("`checkpoint` and `resume` serve fixed-step runs without t_eval, events or dense_output; "
                              "give `h` and drop those (or drop checkpoint/resume).")
-        return _marching(system, integrator, method_data, x0, t0, t_end, h, save_every, progress,
-                         _check_control(integrator, rtol, atol, first_step, max_step, t0, t_end) if h is None else None,
+        return _marching(system, integrator, method_data, x0, t0, t_end, h, save_every, progress, control,
                          t_eval, events, dense_output)
     return _fixed(system, integrator, method_data, x0, t0, t_end, h, save_every, progress, checkpoint, resume)
 
@@ -229,23 +222,27 @@ def _marching(system, integrator, method_data, x0, t0, t_end, h, save_every, pro
     if stops[-1] != t_end:
         stops = np.append(stops, t_end)
     save_all = events is not None or dense_output or (t_eval is None and save_every is not None)
+    chosen = False
     if control is None:  # fixed steps from each stop on
         control = _adaptive.Control(False, math.copysign(h, t_end - t0), 1.0, 1.0, math.inf, _layout.NO_ESTIMATE, 1.0,
                                     float(integrator.order), save_all)
     else:
-        first = _first_step(system, x0, t0, t_end, control) if control.h is None else control.h
-        control = control._replace(h=math.copysign(first, t_end - t0), save_all=save_all)
+        chosen = control.h is None
+        control = control._replace(h=0.0 if chosen else math.copysign(control.h, t_end - t0), save_all=save_all)
     rows = FIRST_ROWS if save_all else len(stops) + 2
     _check_memory(rows)
     out = _output(rows)
     work = np.zeros(getattr(method_data, "slots", 1) * _layout.WORK)
     state = np.concatenate([x0, np.zeros(3), [np.nan, 0.0]])
-    clock = np.array([t0, control.h, 0.0, t0, 0.0, 0.0])
     counters = out.counters
     terminated = None
     scanned = 0
     model = system.model
     with _user_errors.catching(counters) as raised, _interrupts() as interrupted:
+        if control.adaptive and chosen:  # a user function raising here fails the first step, as in the loop
+            control = control._replace(h=_adaptive.first_step(model, system.eps, system.hamiltonian, x0, t0, t_end,
+                                                              control))
+        clock = np.array([t0, control.h, 0.0, t0, 0.0, 0.0])
         budget = FIRST_CHUNK
         while clock[_layout.C_STOP] < len(stops) and counters[_layout.STATUS] == _layout.OK:
             if counters[_layout.ROWS] == len(out.t):
@@ -383,8 +380,21 @@ def _check_t_eval(t_eval, t0, t_end):
     return values
 
 
+def check_step_or_control(integrator, h, rtol, atol, first_step, max_step, t0, t_end):
+    """``(h, None)``: a fixed step, validated (no controller setting may come with it); or ``(None, Control)``
+    for adaptive steps (``h`` None).  Shared by ``solve`` and ``solve_ensemble``."""
+    if h is None:
+        return None, _check_control(integrator, rtol, atol, first_step, max_step, t0, t_end)
+    given = [name for name, v in (("rtol", rtol), ("atol", atol), ("first_step", first_step),
+                                  ("max_step", max_step)) if v is not None]
+    if given:
+        raise ValueError(f"`h` = {h!r} fixes the step, so `{given[0]}` cannot be given too; pass h=None for "
+                         "adaptive steps with rtol/atol.")
+    return _check_step(h, t0, t_end), None
+
+
 def _check_control(integrator, rtol, atol, first_step, max_step, t0, t_end):
-    """The controller's settings, validated; the first step is chosen by ``_first_step`` when not given."""
+    """The controller's settings, validated; the first step is chosen by ``adaptive.first_step`` when not given."""
     rtol = RTOL if rtol is None else _validate.real("rtol", rtol)
     atol = ATOL if atol is None else _validate.real("atol", atol)
     if not (math.isfinite(rtol) and rtol >= 100 * np.finfo(float).eps):
@@ -403,26 +413,6 @@ def _check_control(integrator, rtol, atol, first_step, max_step, t0, t_end):
     estimator, error_order = integrator.error_estimate()
     return _adaptive.Control(True, first_step, rtol, atol, max_step, estimator, float(error_order),
                              float(integrator.order), True)
-
-
-def _first_step(system, x0, t0, t_end, control):
-    """scipy's rule (Hairer, Norsett, Wanner, *Solving ODEs I*, section II.4): from the sizes of x0, xi(x0)
-    and a difference quotient of xi, a step whose Euler error is about the tolerance."""
-    span = abs(t_end - t0)
-    weight = control.atol + control.rtol * np.abs(x0)
-    f0 = _fields(system, x0)[0]
-    d0 = np.sqrt(np.mean((x0 / weight) ** 2))
-    d1 = np.sqrt(np.mean((f0 / weight) ** 2))
-    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
-    h0 = min(h0, span)
-    x1 = x0 + math.copysign(h0, t_end - t0) * f0
-    f1 = _fields(system, x1)[0]
-    d2 = np.sqrt(np.mean(((f1 - f0) / weight) ** 2)) / h0 if np.all(np.isfinite(f1)) else np.inf
-    k = control.error_order + 1.0
-    h1 = max(1e-6, h0 * 1e-3) if d1 <= 1e-15 and d2 <= 1e-15 else (0.01 / max(d1, d2)) ** (1.0 / k)
-    h = min(100 * h0, h1, span, control.h_max)
-    resolution = 16 * np.finfo(float).eps * max(abs(t0), abs(t_end))
-    return math.copysign(max(h, resolution), t_end - t0)
 
 
 def _check_checkpoint(checkpoint):

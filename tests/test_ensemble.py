@@ -20,8 +20,8 @@ def _same(ensemble, i, sol):
     n = ensemble.rows[i]
     for name in ("t", "x", "H", "S"):
         np.testing.assert_array_equal(getattr(ensemble, name)[i, :n], getattr(sol, name))
-    assert (ensemble.status[i], ensemble.n_steps[i], ensemble.n_newton[i], ensemble.nfev[i]) == (
-        sol.status, sol.n_steps, sol.n_newton, sol.nfev)
+    assert (ensemble.status[i], ensemble.n_steps[i], ensemble.n_newton[i], ensemble.nfev[i], ensemble.n_rejected[i]) == (
+        sol.status, sol.n_steps, sol.n_newton, sol.nfev, sol.n_rejected)
     assert ensemble.messages[i] == sol.message
 
 
@@ -31,6 +31,59 @@ def test_each_trajectory_is_its_own_solve_bit_for_bit(method):
     assert len(ensemble) == len(STARTS) and np.all(ensemble.success)
     for i in (0, 4, 5, 22):
         _same(ensemble, i, geomint.solve(BODY, STARTS[i], (0.0, 3.0), 0.05, method=method, save_every=7))
+
+
+ADAPTIVE_METHODS = ["gonzalez", geomint.Projected(geomint.DormandPrince54()), "rk4"]
+
+
+@pytest.mark.parametrize("method", ADAPTIVE_METHODS, ids=["gonzalez", "projected_dp54", "rk4_doubling"])
+def test_each_adaptive_trajectory_is_its_own_adaptive_solve_bit_for_bit(method):
+    """Adaptive steps (one estimator each: RK4 reference, embedded pair, step doubling), the first step chosen per
+    trajectory; rows at t_eval, or at the start and the end."""
+    t_eval = [0.5, 1.0, 2.5, 4.0]
+    ensemble = geomint.solve_ensemble(BODY, STARTS, (0.0, 4.0), method=method, rtol=1e-7, atol=1e-9, t_eval=t_eval,
+                                      chunk=6)
+    assert np.all(ensemble.success) and ensemble.t.shape == (len(STARTS), 4)
+    assert np.all(ensemble.n_steps > 4) and len(set(ensemble.n_steps.tolist())) > 1  # own steps each
+    for i in (0, 7, 22):
+        _same(ensemble, i, geomint.solve(BODY, STARTS[i], (0.0, 4.0), method=method, rtol=1e-7, atol=1e-9,
+                                         t_eval=t_eval))
+    ends = geomint.solve_ensemble(BODY, STARTS[:3], (0.0, 4.0), method=method, rtol=1e-5, first_step=0.01)
+    for i in range(3):
+        _same(ends, i, geomint.solve(BODY, STARTS[i], (0.0, 4.0), method=method, rtol=1e-5, first_step=0.01,
+                                     save_every=None))
+
+
+def test_fixed_steps_landing_on_t_eval_and_backward_spans_are_solve_too():
+    t_eval = [0.0, 0.33, 1.0, 1.7]
+    ensemble = geomint.solve_ensemble(BODY, STARTS, (0.0, 2.0), 0.1, t_eval=t_eval)
+    for i in (0, 11):
+        _same(ensemble, i, geomint.solve(BODY, STARTS[i], (0.0, 2.0), 0.1, t_eval=t_eval))
+    back = geomint.solve_ensemble(BODY, STARTS[:4], (2.0, 0.0), 0.1, save_every=5)
+    adaptive_back = geomint.solve_ensemble(BODY, STARTS[:4], (2.0, 0.0), rtol=1e-6)
+    for i in range(4):
+        _same(back, i, geomint.solve(BODY, STARTS[i], (2.0, 0.0), 0.1, save_every=5))
+        _same(adaptive_back, i, geomint.solve(BODY, STARTS[i], (2.0, 0.0), rtol=1e-6, save_every=None))
+    assert back.t[0, -1] == 0.0 and adaptive_back.t[0, -1] == 0.0
+
+
+def test_failures_landing_on_t_eval_stay_with_their_trajectory_and_keep_the_last_state_reached():
+    """Fixed steps landing on t_eval (RK4 blowing up on stiff starts) and adaptive steps (a grad_S that raises):
+    the failed trajectories keep their t_eval rows so far and the state reached, as solve returns them."""
+    stiff = geomint.systems.quartic_rigid_body(k=2.0, eps=50.0)
+    X0 = np.array([[0.3, 0.2, 0.1], [1.5, -1.2, 0.9], [0.2, 0.1, 0.3]])
+    t_eval = [0.05, 0.1, 5.0, 20.0]
+    ensemble = geomint.solve_ensemble(stiff, X0, (0.0, 20.0), 0.2, method="rk4", t_eval=t_eval)
+    assert ensemble.status.tolist() == [0, -2, -2]
+    for i in range(3):
+        _same(ensemble, i, geomint.solve(stiff, X0[i], (0.0, 20.0), 0.2, method="rk4", t_eval=t_eval))
+    system = _oscillator(grad_S=_grad_S_raising_below_half)
+    X0 = np.array([[0.1, 0.2, 0.9], [0.0, 0.1, 0.99], [0.0, 0.0, 3.0]])
+    ensemble = geomint.solve_ensemble(system, X0, (0.0, 3.0), rtol=1e-6, t_eval=[0.5, 1.0, 3.0], threads=2)
+    assert ensemble.status.tolist() == [-4, -4, 0]
+    assert all("`grad_S` raised ValueError" in m for m in ensemble.messages[:2])
+    for i in range(3):
+        _same(ensemble, i, geomint.solve(system, X0[i], (0.0, 3.0), rtol=1e-6, t_eval=[0.5, 1.0, 3.0]))
 
 
 def test_threads_and_chunks_do_not_change_a_bit():
@@ -98,6 +151,11 @@ def test_to_xarray_labels_trajectories_times_components_and_parameters():
     (dict(threads=True), ValueError, r"`threads` must be an integer >= 1; got True"),
     (dict(h="0.1"), TypeError, r"`h` must be a real number"),
     (dict(progress=3), TypeError, r"`progress` must be None or a callable"),
+    (dict(rtol=1e-6), ValueError, r"`h` = 0.1 fixes the step, so `rtol` cannot be given too"),
+    (dict(h=None, rtol=0.0), ValueError, r"`rtol` must be finite and >= 100 eps"),
+    (dict(h=None, save_every=5), ValueError, r"`save_every` must be 1 or None with adaptive steps"),
+    (dict(t_eval=[0.5, 2.0]), ValueError, r"`t_eval` must lie within t_span"),
+    (dict(t_span=(1.0, 0.0), method="projected"), ValueError, r"runs backward, which"),
 ])
 def test_bad_input_is_refused_with_the_rule(kwargs, error, match):
     arguments = dict(system=BODY, X0=STARTS[:2], t_span=(0.0, 1.0), h=0.1)
@@ -127,6 +185,11 @@ def test_dask_gives_the_local_arrays_bit_for_bit(dask_client):
     for name in ("t", "x", "H", "S", "rows", "status", "n_newton", "nfev"):
         np.testing.assert_array_equal(getattr(remote, name), getattr(local, name))
     assert remote.messages == local.messages
+    local = geomint.solve_ensemble(BODY, STARTS, (0.0, 3.0), rtol=1e-6, t_eval=[1.0, 2.0, 3.0])
+    remote = geomint.solve_ensemble(BODY, STARTS, (0.0, 3.0), rtol=1e-6, t_eval=[1.0, 2.0, 3.0], backend="dask",
+                                    client=dask_client, chunk=4)
+    for name in ("t", "x", "H", "S", "rows", "status", "n_steps", "n_rejected"):
+        np.testing.assert_array_equal(getattr(remote, name), getattr(local, name))
 
 
 def test_a_dask_worker_killed_mid_run_loses_nothing(dask_client):

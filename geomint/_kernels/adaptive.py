@@ -31,9 +31,12 @@ against two of ``h/2`` (``e = (x_2 - x_1) / (2^p - 1)``, Richardson; the two
 half steps are kept), which any method can do, and which stays valid where an
 explicit reference would be unstable (stiff relaxation with DampedGonzalez).
 
-Caller: ``geomint.solve`` (chunks of at most ``budget`` attempts, between which
-it grows the output, reports progress and answers Ctrl-C); it has validated
-every argument.
+The first step, when not given, is ``first_step``: scipy's rule, compiled, so
+that ``solve`` and each trajectory of an ensemble choose the same one.
+
+Callers: ``geomint.solve`` (chunks of at most ``budget`` attempts, between which
+it grows the output, reports progress and answers Ctrl-C) and the ensemble's
+batch kernel; they have validated every argument.
 """
 
 from collections import namedtuple
@@ -44,7 +47,7 @@ from numba.extending import overload
 
 from .._cache import CACHE
 from .driver import _save, step
-from .field import non_finite_culprit
+from .field import field, non_finite_culprit
 from .layout import (
     C_BASE, C_COUNT, C_ERROR, C_H, C_STOP, C_T, CULPRIT, FAILED_STEP, FIELD_EVALUATIONS, NEWTON_FAILED,
     NEWTON_ITERATIONS, NON_FINITE, OK, PROJECTION_FAILED, RAISED, REJECTED, ROWS, RK4_REFERENCE, STATE_ANCHOR,
@@ -180,6 +183,45 @@ def _next_factor(err, previous, exponent, after_rejection):
         factor = SAFETY * err ** (-0.7 * exponent) * max(previous, 1e-4) ** (0.4 * exponent)
     factor = min(FAC_MAX, max(FAC_MIN, factor))
     return min(1.0, factor) if after_rejection else factor
+
+
+@njit(cache=CACHE, error_model="numpy")
+def first_step(model, eps, hamiltonian, x0, t0, t_end, control):
+    """The first step of an adaptive run (signed towards ``t_end``) by scipy's rule (Hairer, Norsett &
+    Wanner, *Solving ODEs I*, section II.4): from the sizes of ``x0``, ``xi(x0)`` and a difference
+    quotient of ``xi``, a step whose Euler error is about the tolerance (in the controller's RMS norm,
+    weights ``atol + rtol |x0_i|``), at most ``100 h0``, the span and ``control.h_max``, at least 16 ulp
+    of the times.  Where the field is not finite at ``x0`` the span is tried (the step will fail and
+    report it)."""
+    buf = np.empty(3)
+    span = abs(t_end - t0)
+    direction = 1.0 if t_end >= t0 else -1.0
+    x = (x0[0], x0[1], x0[2])
+    f0 = field(model, eps, hamiltonian, buf, x)
+    d0, d1 = 0.0, 0.0
+    for i in range(3):
+        weight = control.atol + control.rtol * abs(x[i])
+        d0 += (x[i] / weight) ** 2
+        d1 += (f0[i] / weight) ** 2
+    d0, d1 = np.sqrt(d0 / 3.0), np.sqrt(d1 / 3.0)
+    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+    h0 = min(h0, span)
+    f1 = field(model, eps, hamiltonian, buf, (x[0] + direction * h0 * f0[0], x[1] + direction * h0 * f0[1],
+                                              x[2] + direction * h0 * f0[2]))
+    d2 = np.inf
+    if is_finite(f1):
+        d2 = 0.0
+        for i in range(3):
+            d2 += ((f1[i] - f0[i]) / (control.atol + control.rtol * abs(x[i]))) ** 2
+        d2 = np.sqrt(d2 / 3.0) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / (control.error_order + 1.0))
+    h = min(100.0 * h0, h1, span, control.h_max)
+    if not np.isfinite(h):
+        h = min(span, control.h_max)
+    return direction * max(h, 16.0 * EPS * max(abs(t0), abs(t_end)))
 
 
 @njit(cache=CACHE, error_model="numpy")
