@@ -49,8 +49,8 @@ def field_ns(system, n):
     loop = bare_field_loop(system)
     loop(X0, 10)
     inlined, _ = median_time(lambda: loop(X0, n), 5)
-    _, grad_H, _, grad_S, J, params = system.model
-    args = (grad_H, grad_S, J, params, float(system.eps), bool(system.hamiltonian), X0)
+    model = system.model
+    args = (model.grad_H, model.grad_S, model.J, model.params, float(system.eps), bool(system.hamiltonian), X0)
     try:
         field_loop_through_pointers(*args, 10)
     except TypeError:

@@ -30,7 +30,7 @@ _ADAPTIVE = (
     ("Projected(DormandPrince853) adaptive", ("Projected", "DormandPrince853"), lambda g: g.Projected(g.DormandPrince853())),
     ("Projected(DormandPrince54) adaptive", ("Projected", "DormandPrince54"), lambda g: g.Projected(g.DormandPrince54())),
     ("Gonzalez adaptive", ("Gonzalez",), lambda g: g.Gonzalez()),
-    ("Yoshida4(Gonzalez) adaptive", ("Yoshida4", "Gonzalez"), lambda g: g.Yoshida4(g.Gonzalez())),
+    ("Yoshida4(Gonzalez, monotone) adaptive", ("Yoshida4", "Gonzalez"), lambda g: g.Yoshida4(g.Gonzalez(), monotone=True)),
 )
 
 #: scipy.integrate.solve_ivp methods and the relative tolerances of the drift runs

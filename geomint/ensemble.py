@@ -307,6 +307,10 @@ def _refused(system, X0, params):
 
 
 # -- the local backend -------------------------------------------------------------------------------
+#: positions in the run's arrays: (states, works, t, x, H, S, counters, residuals[, clocks])
+_T, _COUNTERS, _CLOCKS = 2, 6, 8
+
+
 @dataclass(frozen=True)
 class _FixedPlan:
     """Fixed steps on the grid ``t0 + k h`` (``batch.integrate_batch``, as ``solve``'s fixed-step run)."""
@@ -333,11 +337,12 @@ class _FixedPlan:
         _batch.integrate_batch(system.model, p, o, e, system.hamiltonian, method_data, st, wo, self.n_steps,
                                self.grid(), tt, xx, HH, SS, co, re, first, stride)
 
-    def unfinished(self, counters, clocks, part):
+    def unfinished(self, arrays, part):
         return False
 
-    def where_failed(self, i, t, rows, counters, clocks):
+    def where_failed(self, i, arrays):
         """``(time the failed step started from, step)`` for the failure message."""
+        counters = arrays[_COUNTERS]
         h = float(np.copysign(self.h, self.t_end - self.t0))
         failed = int(counters[i, _layout.FAILED_STEP]) if counters[i, _layout.STATUS] < 0 else 1
         return self.t0 + (max(failed, 1) - 1) * h, h
@@ -386,12 +391,15 @@ class _MarchPlan:
         _batch.march_batch(system.model, p, o, e, system.hamiltonian, method_data, self.control, st, wo, cl,
                            self.stops, self.BUDGET, tt, xx, HH, SS, co, re, first, stride)
 
-    def unfinished(self, counters, clocks, part):
+    def unfinished(self, arrays, part):
+        counters, clocks = arrays[_COUNTERS], arrays[_CLOCKS]
         return bool(np.any((counters[part, _layout.STATUS] == _layout.OK)
                            & (clocks[part, _layout.C_STOP] < len(self.stops))))
 
-    def where_failed(self, i, t, rows, counters, clocks):
-        return (float(t[i, rows[i] - 1]) if counters[i, _layout.STATUS] < 0 else 0.0), float(clocks[i, _layout.C_H])
+    def where_failed(self, i, arrays):
+        t, counters, clocks = arrays[_T], arrays[_COUNTERS], arrays[_CLOCKS]
+        rows = counters[i, _layout.ROWS]
+        return (float(t[i, rows - 1]) if counters[i, _layout.STATUS] < 0 else 0.0), float(clocks[i, _layout.C_H])
 
     def kept(self, t, rows, status):
         """Per trajectory, the rows ``solve`` returns: the times of ``t_eval`` (and the last state reached by a
@@ -421,7 +429,6 @@ def _run_local(system, X0, integrator, method_data, params, eps, plan, progress,
     reasons = _refused(system, X0, params)
     counters[[r is not None for r in reasons], _layout.STATUS] = INVALID_START
     arrays = (states, works, t, x, H, S, counters, residuals) + plan.start(n)
-    clocks = arrays[8] if len(arrays) > 8 else None
     raised_by = {}
     threads = max(1, min(threads, chunk))
     with _user_errors.catching_everywhere() as raised, _interrupts() as interrupted, \
@@ -436,14 +443,14 @@ def _run_local(system, X0, integrator, method_data, params, eps, plan, progress,
             views = [a[part] for a in (params, origins, eps)] + [a[part] for a in arrays]
             while True:
                 list(pool.map(lambda first: plan.run(system, method_data, views, first, threads), range(threads)))
-                if raised or interrupted or not plan.unfinished(counters, clocks, part):
+                if raised or interrupted or not plan.unfinished(arrays, part):
                     break
             if raised:  # a user function raised on a worker thread: rerun the chunk where the hook can count it
                 for array, saved in zip(arrays, snapshot):
                     array[part] = saved
                 raised_by.update(_rerun_serially(system, method_data, plan, params, origins, eps, arrays, part))
                 raised.clear()
-            elif interrupted and plan.unfinished(counters, clocks, part):
+            elif interrupted and plan.unfinished(arrays, part):
                 going = (counters[part, _layout.STATUS] == _layout.OK)
                 counters[part, _layout.STATUS] = np.where(going, _layout.INTERRUPTED, counters[part, _layout.STATUS])
             if progress is not None:
@@ -453,7 +460,7 @@ def _run_local(system, X0, integrator, method_data, params, eps, plan, progress,
 
 def _rerun_serially(system, method_data, plan, params, origins, eps, arrays, part):
     """The chunk's trajectories one by one in this thread, each counting its own user-function exceptions."""
-    counters = arrays[6]
+    counters = arrays[_COUNTERS]
     raised_by = {}
     for i in range(part.start, part.stop):
         if counters[i, _layout.STATUS] != _layout.OK:
@@ -463,7 +470,7 @@ def _rerun_serially(system, method_data, plan, params, origins, eps, arrays, par
         with _user_errors.catching(counters[i]) as raised:
             while True:
                 plan.run(system, method_data, views, 0, 1)
-                if raised or not plan.unfinished(counters, arrays[8] if len(arrays) > 8 else None, one):
+                if raised or not plan.unfinished(arrays, one):
                     break
         if raised:
             raised_by[i] = raised[0]
@@ -471,8 +478,7 @@ def _rerun_serially(system, method_data, plan, params, origins, eps, arrays, par
 
 
 def _collect(system, integrator, X0, params, eps, plan, arrays, reasons, raised_by):
-    t, x, H, S, counters, residuals = arrays[2:8]
-    clocks = arrays[8] if len(arrays) > 8 else None
+    t, x, H, S, counters, residuals = arrays[_T:_CLOCKS]
     n = len(X0)
     row_count = counters[:, _layout.ROWS].copy()
     status = counters[:, _layout.STATUS].copy()
@@ -498,11 +504,11 @@ def _collect(system, integrator, X0, params, eps, plan, arrays, reasons, raised_
         what = None
         if status[i] == _layout.USER_RAISED:
             own = system if np.array_equal(params[i], system.params) else None
-            h = plan.where_failed(i, arrays[2], counters[:, _layout.ROWS], counters, clocks)[1]
+            h = plan.where_failed(i, arrays)[1]
             what = (_raised_message(own, x[i, row_count[i] - 1], h, [raised_by.get(i)]) if own is not None else
                     f"a user function raised {raised_by.get(i)!r}")
         failed = int(counters[i, _layout.FAILED_STEP]) if status[i] < 0 else None
-        t_from, h = plan.where_failed(i, arrays[2], counters[:, _layout.ROWS], counters, clocks)
+        t_from, h = plan.where_failed(i, arrays)
         messages.append(_message(int(status[i]), failed, t[i, :row_count[i]], t_from, h, counters[i],
                                  residuals[i, 0], integrator, what))
     return Ensemble(

@@ -411,7 +411,8 @@ def _check_control(integrator, rtol, atol, first_step, max_step, t0, t_end):
             raise ValueError(f"`first_step` must be > 0 and at most |t_end - t0| = {span!r}; got {first_step!r}.")
         _check_step(first_step, t0, t_end)
     estimator, error_order = integrator.error_estimate()
-    return _adaptive.Control(True, first_step, rtol, atol, max_step, estimator, float(error_order),
+    scale = _adaptive.proportional_tolerance(estimator, integrator.order, rtol)
+    return _adaptive.Control(True, first_step, rtol * scale, atol * scale, max_step, estimator, float(error_order),
                              float(integrator.order), True)
 
 

@@ -244,7 +244,7 @@ class MetriplecticSystem:
         arrays of them.  The same formulas then serve both."""
         X = _states(x)
         if X.shape == (3,):
-            return self._at_one(np.ascontiguousarray(X), which)
+            return self._at_one(X if X.flags.c_contiguous else np.ascontiguousarray(X), which)
         values = self._evaluate(X)
         return tuple(values[i] if i < 2 else tuple(values[i].T) for i in which)
 
@@ -254,12 +254,13 @@ class MetriplecticSystem:
         f, p = self.functions, self._params
         functions = (f.H, f.S, f.grad_H, f.grad_S, f.poisson)
         try:
-            return [float(functions[i](x, p)) if i < 2 else _components(functions[i](x, p)) for i in which]
+            values = [functions[i](x, p) for i in which]
         except Exception:
             found = self.raising_function(x)
             if found is None:
                 raise
             raise _user_errors.UserFunctionError(found[0], x.tolist(), found[1]) from found[1]
+        return [float(v) if i < 2 else v if type(v) is tuple else _components(v) for i, v in zip(which, values)]
 
     def raising_function(self, x):
         """``(name, exception)`` of the first user function that raises at ``x``, or None if none does."""
@@ -309,7 +310,8 @@ class MetriplecticSystem:
         else:
             (gh, gs), p = self._at(x, (_GRAD_H, _GRAD_S)), (0.0, 0.0, 0.0)
         d, eps = _cross(gh, _cross(gh, gs)), self.eps
-        return _array((p[0] + eps * d[0], p[1] + eps * d[1], p[2] + eps * d[2]))
+        v = (p[0] + eps * d[0], p[1] + eps * d[1], p[2] + eps * d[2])
+        return np.array(v) if type(v[0]) is float else np.stack(v, axis=-1)
 
     def g(self, x):
         """The metric ``grad H (x) grad H - I |grad H|^2``, shape (3, 3) or (n, 3, 3)."""

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from scipy.integrate import solve_ivp
 
 import geomint
 from geomint import diagnostics
@@ -68,3 +69,20 @@ def test_work_precision_errors_fall_with_the_cost_and_cost_to_reach_reads_them()
     assert np.all(np.diff(curve.error) < 0) and np.all(np.diff(curve.nfev) > 0)
     cost = diagnostics.cost_to_reach(curve.nfev, curve.error, curve.error[1])
     assert cost == pytest.approx(curve.nfev[1])
+
+
+def test_work_precision_over_tolerances_measures_the_error_along_the_trajectory():
+    """Adaptive runs over rtol = atol; with a callable reference the error is the largest over the returned
+    states, so it is at least the error at T; fixed steps save about ``samples`` states."""
+    dense = solve_ivp(lambda t, y: BODY.xi(y), (0.0, 2.0), X0, method="DOP853", rtol=1e-13, atol=1e-15,
+                      dense_output=True).sol
+    along = diagnostics.work_precision(BODY, X0, 2.0, geomint.Projected(geomint.DormandPrince54()), None, lambda t: dense(t).T, repeats=1,
+                                       tolerances=[1e-4, 1e-6, 1e-8])
+    at_T = diagnostics.work_precision(BODY, X0, 2.0, geomint.Projected(geomint.DormandPrince54()), None, dense(2.0), repeats=1,
+                                      tolerances=[1e-4, 1e-6, 1e-8])
+    assert along.setting == [1e-4, 1e-6, 1e-8] and np.all(np.diff(along.error) < 0)
+    assert np.all(np.array(along.error) >= np.array(at_T.error)) and np.any(np.array(along.error) > at_T.error)
+    fixed = diagnostics.work_precision(BODY, X0, 2.0, "rk4", [2000], lambda t: dense(t).T, repeats=1, samples=100)
+    assert fixed.error[0] < 1e-11
+    with pytest.raises(ValueError, match="give exactly one of `step_counts`"):
+        diagnostics.work_precision(BODY, X0, 2.0, "rk4", [10], dense(2.0), tolerances=[1e-6])
