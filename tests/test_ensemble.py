@@ -86,6 +86,19 @@ def test_failures_landing_on_t_eval_stay_with_their_trajectory_and_keep_the_last
         _same(ensemble, i, geomint.solve(system, X0[i], (0.0, 3.0), rtol=1e-6, t_eval=[0.5, 1.0, 3.0]))
 
 
+def test_a_user_function_raising_where_the_first_step_is_chosen_fails_that_step_and_is_named():
+    """grad_S raises at the start itself (z < 1/2), where the adaptive first step evaluates the field: the
+    trajectory fails at step 1 with the function named, in solve and in the ensemble alike (no "Exception
+    ignored" and no garbage step)."""
+    system = _oscillator(grad_S=_grad_S_raising_below_half)
+    X0 = np.array([[0.3, 0.2, 0.1], [0.0, 0.0, 3.0]])
+    sol = geomint.solve(system, X0[0], (0.0, 1.0), rtol=1e-6)
+    assert sol.status == -4 and sol.failed_step == 1 and "`grad_S` raised ValueError" in sol.message
+    ensemble = geomint.solve_ensemble(system, X0, (0.0, 1.0), rtol=1e-6, threads=2)
+    assert ensemble.status.tolist() == [-4, 0]
+    _same(ensemble, 0, sol)
+
+
 def test_threads_and_chunks_do_not_change_a_bit():
     one = geomint.solve_ensemble(BODY, STARTS, (0.0, 2.0), 0.05, threads=1, chunk=len(STARTS))
     many = geomint.solve_ensemble(BODY, STARTS, (0.0, 2.0), 0.05, threads=3, chunk=4)
