@@ -95,6 +95,19 @@ def test_the_effects_switches_drop_parts_of_the_field():
     np.testing.assert_array_equal(system.with_effects(eps=0).xi(x), system.xi_P(x))
 
 
+@pytest.mark.parametrize("system", [geomint.systems.relaxing_rigid_body(eps=0.4),
+                                    geomint.systems.relaxing_rigid_body(eps=0.4).with_effects(hamiltonian=False),
+                                    geomint.systems.dissipative_oscillator((0.3, 0.0, 0.5), eps=1.0)],
+                         ids=["body", "body_gradient_only", "oscillator"])
+def test_xi_on_one_state_is_the_row_of_xi_on_many_bit_for_bit(system):
+    """One state takes its own short path (what a scipy right-hand side calls); it must be the same arithmetic."""
+    X = np.random.default_rng(3).normal(scale=2.0, size=(50, 3))
+    many = system.xi(X)
+    for row, value in zip(X, many):
+        np.testing.assert_array_equal(system.xi(row), value)
+        np.testing.assert_array_equal(system.xi(list(row)), value)
+
+
 # -- user functions, P form, validation -------------------------------------------------
 @numba.njit
 def _H(x, p):
