@@ -17,14 +17,14 @@ measured; it is left out, and said so, when it is not installed.
 """
 
 import argparse
-import statistics
-import time
+import math
 from pathlib import Path
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
 import geomint
+from geomint.diagnostics import median_time
 
 from .compiled import lsoda_rhs, scipy_rhs
 from .runs import lsoda_result
@@ -49,17 +49,13 @@ FIXED = {
 }
 
 
+def _timed(run, repeats):
+    """Median wall time of ``run()`` over ``repeats`` calls, none cut short; ``(seconds, last result)``."""
+    return median_time(run, repeats, budget=math.inf)
+
+
 def _exact(method):
     return bool(method.energy_exact and method.dissipative)
-
-
-def _median_time(run, repeats):
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        result = run()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), result
 
 
 def ratios(rows):
@@ -93,7 +89,7 @@ def lsoda_row(rows, error, repeats):
     for tol in np.logspace(-6, -13, 15):
         states, ok = lsoda_result(rhs, M0, t_eval, tol, tol)
         if ok and error(t_eval, states) <= TARGET:
-            wall, (states, ok) = _median_time(lambda: lsoda_result(rhs, M0, t_eval, tol, tol), repeats)
+            wall, (states, ok) = _timed(lambda: lsoda_result(rhs, M0, t_eval, tol, tol), repeats)
             H = BODY.H(states)
             rows.append(("numbalsoda LSODA (compiled)", False, f"rtol = atol = {tol:.1e}",
                          error(t_eval, states), "—", "—", float(np.max(np.abs(H - H[0])) / H[0]),
@@ -122,7 +118,7 @@ def main(argv=None):
             if sol.success:
                 best = min(best, error(sol.t, sol.x))
             if sol.success and error(sol.t, sol.x) <= TARGET:
-                wall, sol = _median_time(lambda: geomint.solve(BODY, M0, (0.0, T), rtol=tol, atol=tol, method=method),
+                wall, sol = _timed(lambda: geomint.solve(BODY, M0, (0.0, T), rtol=tol, atol=tol, method=method),
                                          args.repeats)
                 rows.append((label, _exact(method), f"rtol = atol = {tol:.1e}", error(sol.t, sol.x), sol.n_steps,
                              sol.n_rejected, sol.energy_error, sol.S_rises, wall))
@@ -137,7 +133,7 @@ def main(argv=None):
             if sol.success and error(sol.t, sol.x) <= TARGET:
                 break
             h /= 2
-        wall, sol = _median_time(lambda: geomint.solve(BODY, M0, (0.0, T), h, method=method, save_every=1),
+        wall, sol = _timed(lambda: geomint.solve(BODY, M0, (0.0, T), h, method=method, save_every=1),
                                  max(1, args.repeats // 2))
         rows.append((label, _exact(method), f"h = {h:.3g}", error(sol.t, sol.x), sol.n_steps, 0, sol.energy_error,
                      sol.S_rises, wall))
@@ -145,7 +141,7 @@ def main(argv=None):
         for tol in np.logspace(-6, -13, 15):
             res = solve_ivp(rhs, (0.0, T), M0, method=name, rtol=tol, atol=tol)
             if res.success and error(res.t, res.y.T) <= TARGET:
-                wall, res = _median_time(lambda: solve_ivp(rhs, (0.0, T), M0, method=name, rtol=tol, atol=tol),
+                wall, res = _timed(lambda: solve_ivp(rhs, (0.0, T), M0, method=name, rtol=tol, atol=tol),
                                          args.repeats)
                 H = BODY.H(res.y.T)
                 rows.append((f"scipy {name}", False, f"rtol = atol = {tol:.1e}", error(res.t, res.y.T), res.t.size - 1,

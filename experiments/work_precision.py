@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from geomint import plotting
-from geomint.diagnostics import Curve, cost_to_reach, work_precision
+from geomint.diagnostics import Curve, cost_to_reach, error_along, work_precision
 
 from . import problems
 from .compiled import lsoda_rhs, scipy_rhs
@@ -71,11 +71,6 @@ def reference(problem, t_end):
                            f"= {spread:.2g}")
 
 
-def along(x_ref, sol):
-    """The largest distance to the reference over the returned states."""
-    return float(np.max(np.linalg.norm(sol.x - x_ref(sol.t), axis=1)))
-
-
 #: the tightest tolerance of the adaptive geomint sweeps: at 1e-12 adaptive Gonzalez on the quartic body
 #: crawls near the attractor (t ~ 19.8: steps of 1e-9, ~4 rejected attempts per accepted step, minutes of
 #: run time), a known defect of its Newton acceptance at tolerances near round-off
@@ -101,7 +96,7 @@ def tolerance_curve(label, settings, solve_at, x_ref):
         if solution.success:
             curve.wall.append(seconds)
             curve.nfev.append(solution.nfev if solution.nfev else np.nan)
-            curve.error.append(along(x_ref, solution))
+            curve.error.append(error_along(solution, x_ref))
             curve.setting.append(rtol)
         if seconds > settings.scipy_cutoff:
             break

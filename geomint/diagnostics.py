@@ -11,7 +11,7 @@ scipy runs are measured the same way.
 - ``S_rises(sol)``: the saved steps where S rose by more than round-off.
 - ``observed_order`` / ``measured_order``: the slope of the error against h
   with the round-off plateau excluded (the GeometricIntegrators.jl audit habit).
-- ``work_precision`` / ``cost_to_reach``: error (at T or along the trajectory)
+- ``work_precision`` / ``cost_to_reach`` / ``error_along``: error (at T or along the trajectory)
   against wall time and field evaluations over a sweep of step sizes or
   tolerances, and the cost to reach an error.
 """
@@ -213,6 +213,12 @@ def median_time(run, repeats, budget=2.0):
     return statistics.median(times), result
 
 
+def error_along(sol, reference):
+    """The largest distance ``|x_k - reference(t_k)|_2`` over the states of ``sol``; ``reference(t)`` gives
+    ``(len(t), 3)`` states (e.g. a dense DOP853 solution, transposed)."""
+    return float(np.max(np.linalg.norm(sol.x - reference(sol.t), axis=1)))
+
+
 def work_precision(system, x0, t_end, method, step_counts, reference, repeats=3, point_budget=2.0,
                    sweep_budget=math.inf, label=None, *, tolerances=None, samples=1000):
     """Error against cost over a sweep of fixed steps ``h = T / n`` or of tolerances ``rtol = atol``.
@@ -259,9 +265,7 @@ def work_precision(system, x0, t_end, method, step_counts, reference, repeats=3,
                      save_every=max(1, n // samples) if along else None)
 
     def error(sol):
-        if along:
-            return float(np.max(np.linalg.norm(sol.x - reference(sol.t), axis=1)))
-        return float(np.linalg.norm(sol.x_final - reference))
+        return error_along(sol, reference) if along else float(np.linalg.norm(sol.x_final - reference))
 
     settings = tolerances if tolerances is not None else [t_end / n for n in step_counts]
     run(settings[0])  # warm-up: compile

@@ -28,15 +28,14 @@ import numba
 import numpy as np
 
 from . import _user_errors, _validate
-from ._kernels import adaptive as _adaptive
 from ._kernels import batch as _batch
 from ._kernels import driver as _driver
 from ._kernels import layout as _layout
 from .integrators import resolve
 from .solution import Solution
 from .solve import (
-    _check_memory, _check_save_every, _check_span, _check_t_eval, _interrupts, _message, _raised_message, _reversible,
-    check_step_or_control, step_count,
+    _check_memory, _check_save_every, _check_span, _check_t_eval, _interrupts, _message, _raised_message,
+    check_direction, check_step_or_control, marching, step_count,
 )
 from .system import MetriplecticSystem
 
@@ -208,10 +207,7 @@ def solve_ensemble(system, X0, t_span, h=None, method="gonzalez", *, rtol=None, 
     integrator.check_system(system)
     t0, t_end = _check_span(t_span)
     method_data = integrator.lower(system)
-    if t_end < t0 and not _reversible(method_data):
-        raise ValueError(f"`t_span` = {t_span!r} runs backward, which {integrator!r} cannot: its S safeguard or "
-                         "projection keeps S from rising, as S must backward. Use Gonzalez(), another discrete "
-                         "gradient, RK4() or a Runge-Kutta pair.")
+    check_direction(integrator, method_data, t_span, t0, t_end)
     t_eval = None if t_eval is None else _check_t_eval(t_eval, t0, t_end)
     h, control = check_step_or_control(integrator, h, rtol, atol, first_step, max_step, t0, t_end)
     if h is not None and t_eval is None:
@@ -222,7 +218,7 @@ def solve_ensemble(system, X0, t_span, h=None, method="gonzalez", *, rtol=None, 
         if save_every is not None and (isinstance(save_every, (bool, np.bool_)) or save_every != 1):
             raise ValueError("`save_every` must be 1 or None with adaptive steps (h=None) or t_eval (the rows are "
                              f"the times of t_eval, or the start and the end); got {save_every!r}.")
-        plan = _MarchPlan.of(integrator, t0, t_end, h, control, t_eval)
+        plan = _MarchPlan(t0, *marching(integrator, h, control, t0, t_end, t_eval, False), t_eval)
     _check_memory(plan.rows * n)
     if backend == "dask":
         return _on_dask(client, system, X0, t_span, integrator, params, eps, progress, chunk,
@@ -363,18 +359,6 @@ class _MarchPlan:
 
     #: attempts per trajectory per kernel call (between calls: Ctrl-C)
     BUDGET = 100_000
-
-    @classmethod
-    def of(cls, integrator, t0, t_end, h, control, t_eval):
-        stops = [t for t in (t_eval if t_eval is not None else []) if t != t0] or [t_end]
-        stops = np.array(stops if stops[-1] == t_end else stops + [t_end], dtype=np.float64)
-        if control is None:  # fixed steps from each stop on
-            control = _adaptive.Control(False, float(np.copysign(h, t_end - t0)), 1.0, 1.0, np.inf,
-                                        _layout.NO_ESTIMATE, 1.0, float(integrator.order), False)
-        else:  # a first step of 0 is chosen per trajectory (adaptive.first_step)
-            first = 0.0 if control.h is None else float(np.copysign(control.h, t_end - t0))
-            control = control._replace(h=first, save_all=False)
-        return cls(t0, stops, control, t_eval)
 
     @property
     def rows(self):

@@ -157,10 +157,7 @@ def solve(system, x0, t_span, h=None, method="gonzalez", save_every=1, progress=
     x0 = _check_state(system, x0)
     t0, t_end = _check_span(t_span)
     method_data = integrator.lower(system)
-    if t_end < t0 and not _reversible(method_data):
-        raise ValueError(f"`t_span` = {t_span!r} runs backward, which {integrator!r} cannot: its S safeguard or "
-                         "projection keeps S from rising, as S must backward. Use Gonzalez(), another discrete "
-                         "gradient, RK4() or a Runge-Kutta pair.")
+    check_direction(integrator, method_data, t_span, t0, t_end)
     if not isinstance(dense_output, (bool, np.bool_)):
         raise TypeError(f"`dense_output` must be True or False; got {dense_output!r}.")
     events = None if events is None else Events(events)
@@ -218,17 +215,9 @@ def _marching(system, integrator, method_data, x0, t0, t_end, h, save_every, pro
     if save_every is not None and (isinstance(save_every, (bool, np.bool_)) or save_every != 1):
         raise ValueError(f"`save_every` must be 1 or None with adaptive steps (h=None), t_eval, events or dense_output "
                          f"(they keep every step, or the times of t_eval); got {save_every!r}.")
-    stops = np.array([t for t in (t_eval if t_eval is not None else []) if t != t0] or [t_end], dtype=np.float64)
-    if stops[-1] != t_end:
-        stops = np.append(stops, t_end)
     save_all = events is not None or dense_output or (t_eval is None and save_every is not None)
-    chosen = False
-    if control is None:  # fixed steps from each stop on
-        control = _adaptive.Control(False, math.copysign(h, t_end - t0), 1.0, 1.0, math.inf, _layout.NO_ESTIMATE, 1.0,
-                                    float(integrator.order), save_all)
-    else:
-        chosen = control.h is None
-        control = control._replace(h=0.0 if chosen else math.copysign(control.h, t_end - t0), save_all=save_all)
+    stops, control = marching(integrator, h, control, t0, t_end, t_eval, save_all)
+    chosen = control.adaptive and control.h == 0.0
     rows = FIRST_ROWS if save_all else len(stops) + 2
     _check_memory(rows)
     out = _output(rows)
@@ -239,7 +228,7 @@ def _marching(system, integrator, method_data, x0, t0, t_end, h, save_every, pro
     scanned = 0
     model = system.model
     with _user_errors.catching(counters) as raised, _interrupts() as interrupted:
-        if control.adaptive and chosen:  # a user function raising here fails the first step, as in the loop
+        if chosen:  # a user function raising here fails the first step, as in the loop
             control = control._replace(h=_adaptive.first_step(model, system.eps, system.hamiltonian, x0, t0, t_end,
                                                               control))
         clock = np.array([t0, control.h, 0.0, t0, 0.0, 0.0])
@@ -378,6 +367,28 @@ def _check_t_eval(t_eval, t0, t_end):
         raise ValueError(f"`t_eval` must be strictly {order}; got {float(values[k])!r} then {float(values[k + 1])!r} at index {k}.")
     _check_memory(values.size + 2)
     return values
+
+
+def check_direction(integrator, method_data, t_span, t0, t_end):
+    """Refuse a backward ``t_span`` for a method that cannot step backward (``_reversible``)."""
+    if t_end < t0 and not _reversible(method_data):
+        raise ValueError(f"`t_span` = {t_span!r} runs backward, which {integrator!r} cannot: its S safeguard or "
+                         "projection keeps S from rising, as S must backward. Use Gonzalez(), another discrete "
+                         "gradient, RK4() or a Runge-Kutta pair.")
+
+
+def marching(integrator, h, control, t0, t_end, t_eval, save_all):
+    """``(stops, Control)`` of a run by ``adaptive.march``: it lands on the times of ``t_eval`` after ``t0``
+    and on ``t_end``; fixed steps ``h`` from each stop on (``control`` None), or adaptive ones whose first
+    step, when not given, is 0 here: chosen by ``adaptive.first_step`` when the run starts."""
+    stops = np.array([t for t in (t_eval if t_eval is not None else []) if t != t0] or [t_end], dtype=np.float64)
+    if stops[-1] != t_end:
+        stops = np.append(stops, t_end)
+    if control is None:
+        return stops, _adaptive.Control(False, math.copysign(h, t_end - t0), 1.0, 1.0, math.inf, _layout.NO_ESTIMATE,
+                                         1.0, float(integrator.order), save_all)
+    first = 0.0 if control.h is None else math.copysign(control.h, t_end - t0)
+    return stops, control._replace(h=first, save_all=save_all)
 
 
 def check_step_or_control(integrator, h, rtol, atol, first_step, max_step, t0, t_end):
