@@ -27,8 +27,10 @@ EPS = np.finfo(float).eps
 BODY = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
 M0 = np.array([math.cos(1.1), 0.0, math.sin(1.1)])
 #: one method per error estimate: against RK4 (discrete gradients), the embedded pair under the
-#: projection, step doubling (DampedGonzalez, and any composition)
-ADAPTIVE = [geomint.Gonzalez(), geomint.Projected(geomint.DormandPrince54()), geomint.DampedGonzalez()]
+#: projection, step doubling (DampedGonzalez at order 2; the monotone Yoshida4 composition of Gonzalez
+#: steps at order 4, whose tolerance is made proportional)
+ADAPTIVE = [geomint.Gonzalez(), geomint.Projected(geomint.DormandPrince54()), geomint.DampedGonzalez(),
+            geomint.Yoshida4(geomint.Gonzalez(), monotone=True)]
 
 
 def _ids(method):
