@@ -365,9 +365,7 @@ class _MarchPlan:
         return len(self.stops) + 2
 
     def start(self, n):
-        clocks = np.zeros((n, _layout.N_CLOCK))
-        clocks[:, _layout.C_T] = clocks[:, _layout.C_BASE] = self.t0
-        clocks[:, _layout.C_H] = self.control.h
+        clocks = np.tile(_layout.new_clock(self.t0, self.control.h), (n, 1))
         return (clocks,)
 
     def run(self, system, method_data, views, first, stride):

@@ -231,7 +231,7 @@ def _marching(system, integrator, method_data, x0, t0, t_end, h, save_every, pro
         if chosen:  # a user function raising here fails the first step, as in the loop
             control = control._replace(h=_adaptive.first_step(model, system.eps, system.hamiltonian, x0, t0, t_end,
                                                               control))
-        clock = np.array([t0, control.h, 0.0, t0, 0.0, 0.0])
+        clock = _layout.new_clock(t0, control.h)
         budget = FIRST_CHUNK
         while clock[_layout.C_STOP] < len(stops) and counters[_layout.STATUS] == _layout.OK:
             if counters[_layout.ROWS] == len(out.t):
@@ -327,7 +327,7 @@ def _land(system, method_data, out, n, t, run_state):
     one = _output(2)
     state = np.concatenate([out.x[n], np.zeros(3), [run_state[_layout.STATE_ANCHOR], 0.0]])
     control = _adaptive.Control(False, t - out.t[n], 1.0, 1.0, math.inf, _layout.NO_ESTIMATE, 1.0, 1.0, False)
-    clock = np.array([out.t[n], 0.0, 0.0, out.t[n], 0.0, 0.0])
+    clock = _layout.new_clock(out.t[n])
     work = np.zeros(getattr(method_data, "slots", 1) * _layout.WORK)
     _adaptive.march(system.model, system.eps, system.hamiltonian, method_data, control, state, work, clock,
                     np.array([t]), 4, one)

@@ -2,13 +2,21 @@
 
 Every kernel trusts its caller (`geomint.solve` or `MetriplecticSystem`) to have
 checked shapes, finiteness and function types.  The model reaches a kernel as
-the leading arguments ``(H, grad_H, S, grad_S, J, params)``: typed first-class
-functions, so that one cached compilation serves every system
-(docs/design.md section 5).
+one value, ``layout.Model``: the user functions as typed first-class functions
+and the params, so that one cached compilation serves every system of the same
+function types (docs/design.md section 5).  numba warns at each compilation
+that first-class function types are experimental; the user cannot act on that,
+so this one warning is filtered (by its message, nothing else).
 """
 
 import hashlib
+import warnings
 from pathlib import Path
+
+from numba.core.errors import NumbaExperimentalFeatureWarning
+
+warnings.filterwarnings("ignore", message=".*First-class function type feature is experimental",
+                        category=NumbaExperimentalFeatureWarning)
 
 
 def _drop_stale_cache():

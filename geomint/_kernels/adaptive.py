@@ -33,6 +33,26 @@ Yoshida4(Gonzalez), rtol from 1e-4 to 1e-10: 0.4-0.7x rtol over T = 10 and
 100).  Orders 2 and below keep the given tolerance: their transformed local
 tolerance (``rtol^1.5``) would sit at round-off.
 
+**Energy anchor near equilibria.**  A discrete-gradient step keeps the
+energy of the run's first state, H(x0) (``steps.discrete_gradient_step``):
+it removes the few ulps by which H(x_n) has strayed.  Its discrete gradient
+does so through a correction along the increment, which moves the state
+*along* the level set by about ``|H(x_n) - H(x0)| |J| / |xi|``, whatever the
+step: near an equilibrium (``|xi|`` small) at a tight tolerance this exceeds
+the tolerance, every attempt is rejected however short, and the run crawls.
+The controller recognises it: a streak of rejections in which the step has
+halved but the error norm has not (a local error of order ``q`` would have
+fallen by ``2^q``).  It then shortens the anchor's *reach* (``C_REACH``): the
+step keeps ``H(x_n) + reach (H(x0) - H(x_n))``, reach divided by 4 (0 below
+``4 REACH_MIN``: the step keeps its own energy), and is retried at the
+streak's first step.  An accepted step with reach below 1 is pulled back
+along grad H onto H(x0) (``composition.pull_back``, S kept from rising): a
+displacement of ``|H - H(x0)| / |grad H|``, the smallest there is.  The reach
+doubles back after each step with error norm at most 0.5.  Measured (quartic
+body k = 0.5, eps = 0.1, rtol = atol = 1e-12, T = 20): the run had crawled
+for minutes near t = 19.82 with 18 million rejections in 0.005 time units;
+it now takes 0.05 s, energy to 2e-15.
+
 Estimators (``layout``): ``EMBEDDED``, the method's own pair
 (``pairs.pair_step``); ``RK4_REFERENCE``, a discrete-gradient step of order
 ``p`` against the explicit RK4 step from the same state (order 4, so the
@@ -57,10 +77,11 @@ from numba import njit
 from numba.extending import overload
 
 from .._cache import CACHE
+from .composition import pull_back
 from .driver import _save, step
 from .field import field, non_finite_culprit
 from .layout import (
-    C_BASE, C_COUNT, C_ERROR, C_H, C_STOP, C_T, CULPRIT, DOUBLING, FAILED_STEP, FIELD_EVALUATIONS, NEWTON_FAILED,
+    C_BASE, C_COUNT, C_ERROR, C_H, C_REACH, C_STOP, C_T, CULPRIT, DOUBLING, FAILED_STEP, FIELD_EVALUATIONS, NEWTON_FAILED,
     NEWTON_ITERATIONS, NON_FINITE, OK, PROJECTION_FAILED, RAISED, REJECTED, ROWS, RK4_REFERENCE, STATE_ANCHOR,
     STATE_COMP, STATE_S, STATE_X, STATUS, STEP_TOO_SMALL, STEPS, UNKNOWN, USER_RAISED, ComposedStep, DiscreteGradientStep,
     EmbeddedPairStep, RungeKutta4, StepResult,
@@ -75,6 +96,10 @@ FAC_MIN = 0.2
 FAC_MAX = 10.0
 #: a failed Newton iteration or projection retries the step this much shorter
 FAILED_FACTOR = 0.25
+#: the anchor's reach below which steps keep their own energy (reach 0), and from which it grows back
+REACH_MIN = 2.0**-10
+#: Newton iterations of the pull back onto the anchor's level set (it stops once the residual stops shrinking)
+PULL_BACK_ITER = 50
 
 #: ``adaptive``: error control on; ``h``: the fixed step (signed) when it is off, else unused;
 #: ``rtol``, ``atol``, ``h_max`` (> 0); ``estimator`` (``layout``) and the order of the estimate
@@ -268,8 +293,11 @@ def march(model, eps, hamiltonian, method, control, state, work, clock, stops, b
         _save(out, clock[C_T], x, H0, state[STATE_S])
     anchor = state[STATE_ANCHOR]
     S_x = state[STATE_S]
+    H_x = np.nan  # H at x, evaluated when the anchor's reach is short of 1
+    reach = clock[C_REACH]
     exponent = 1.0 / (control.error_order + 1.0)
     after_rejection = False
+    streak_h, streak_err = 0.0, 0.0  # the first rejected attempt of the current streak
     attempts = 0
     while clock[C_STOP] < stops.shape[0] and counters[ROWS] < out.t.shape[0] and attempts < budget:
         attempts += 1
@@ -286,7 +314,12 @@ def march(model, eps, hamiltonian, method, control, state, work, clock, stops, b
         landing = abs(h) >= abs(remaining) * (1.0 - 4.0 * EPS)
         if landing:
             h = remaining
-        r, err = estimated_step(method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work)
+        H_target = anchor
+        if reach < 1.0:
+            if np.isnan(H_x):
+                H_x = model.H(load(buf, x), p)
+            H_target = H_x + reach * (anchor - H_x)
+        r, err = estimated_step(method, control, model, eps, hamiltonian, buf, x, comp, H_target, S_x, h, work)
         counters[NEWTON_ITERATIONS] += r.iterations
         counters[FIELD_EVALUATIONS] += r.evaluations
         residual[0] = r.residual
@@ -305,6 +338,17 @@ def march(model, eps, hamiltonian, method, control, state, work, clock, stops, b
             status = NON_FINITE
         resolution = 16.0 * EPS * max(abs(t_now), abs(target))
         if control.adaptive and status == OK and not err <= 1.0:  # rejected (a NaN estimate too)
+            if streak_h == 0.0:
+                streak_h, streak_err = h, err
+            elif reach > 0.0 and abs(h) <= 0.5 * abs(streak_h) and err >= 0.5 * streak_err:
+                # the estimate does not fall with the step: the anchor's pull (module docstring)
+                reach = 0.0 if reach < 4.0 * REACH_MIN else 0.25 * reach
+                clock[C_REACH] = reach
+                clock[C_H] = streak_h
+                streak_h = 0.0
+                counters[REJECTED] += 1
+                after_rejection = True
+                continue
             factor = SAFETY * err ** -exponent if np.isfinite(err) else FAC_MIN
             clock[C_H] = h * max(FAC_MIN, min(1.0, factor))
             counters[REJECTED] += 1
@@ -328,6 +372,10 @@ def march(model, eps, hamiltonian, method, control, state, work, clock, stops, b
                 load(buf, x)
                 _save(out, t_now, x, model.H(buf, p), S_x)
             break
+        if H_target != anchor:  # the step kept (nearly) its own energy: back along grad H onto the anchor's
+            x_new, H_new, S_new, ev = pull_back(model, buf, x_new, H_new, S_new, anchor, max(S_x, S_new),
+                                                PULL_BACK_ITER)
+            counters[FIELD_EVALUATIONS] += ev
         if control.adaptive:
             clock[C_H] = h * _next_factor(err, clock[C_ERROR], exponent, after_rejection)
             if landing and abs(clock[C_H]) < abs(proposal):  # a step shortened to land says little of the next
@@ -338,8 +386,12 @@ def march(model, eps, hamiltonian, method, control, state, work, clock, stops, b
             clock[C_COUNT] = 0.0
         else:
             clock[C_COUNT] += 1.0
+        if reach < 1.0 and err <= 0.5:  # the anchor's reach grows back while the steps are well inside
+            reach = min(1.0, 2.0 * reach) if reach > 0.0 else REACH_MIN
+            clock[C_REACH] = reach
         after_rejection = False
-        x, comp, S_x = x_new, comp_new, S_new
+        streak_h = 0.0
+        x, comp, S_x, H_x = x_new, comp_new, S_new, H_new
         counters[STEPS] += 1
         clock[C_T] = target if landing else t_now + h
         if landing:

@@ -165,7 +165,7 @@ def _symmetric_projection(coeffs, iopts, model, eps, hamiltonian, buf, x, target
 
 
 @njit(error_model="numpy")
-def _pull_back(model, buf, y, H_y, S_y, anchor, S_limit, max_iter):
+def pull_back(model, buf, y, H_y, S_y, anchor, S_limit, max_iter):
     """``y`` moved along grad H back onto ``H = anchor`` when it strayed beyond ``ANCHOR_ULPS`` of the
     terms of H (see the module docstring), keeping S at most ``S_limit`` (S at the start of the full
     step, or the step's own S where it rose) to round-off.  Returns ``(y, H(y), S(y), evaluations)``."""
@@ -221,7 +221,7 @@ def composed_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, 
         if not projected:
             return StepResult(y, comp_y, H_y, S_y, PROJECTION_FAILED, iterations, evaluations, residual, UNKNOWN), rises, fired
     elif iopts[P_ANCHOR]:
-        z, H_y, S_y, ev = _pull_back(model, buf, y, H_y, S_y, H_anchor, max(S_x, S_y), max_iter)
+        z, H_y, S_y, ev = pull_back(model, buf, y, H_y, S_y, H_anchor, max(S_x, S_y), max_iter)
         evaluations += ev
         if z[0] != y[0] or z[1] != y[1] or z[2] != y[2]:
             y, comp_y = z, ZERO

@@ -11,6 +11,8 @@ run compiles neither compositions nor the other discrete gradients.
 
 from collections import namedtuple
 
+import numpy as np
+
 # -- step status ------------------------------------------------------------------------------
 OK = 0
 INTERRUPTED = 2  # set by ``geomint.solve`` between chunks (1 is kept for terminal events, as in scipy)
@@ -52,14 +54,25 @@ N_STATE = 8
 
 # -- clock of an adaptive or stop-landing run (float64 array carried from chunk to chunk, ``adaptive.march``)
 #    the time of the state, the next step to try (signed), the last accepted error norm (PI controller),
-#    fixed steps: the time of the last landing and the steps taken since; the index of the next stop
+#    fixed steps: the time of the last landing and the steps taken since; the index of the next stop;
+#    the reach of the energy anchor (``adaptive`` module docstring, "Energy anchor near equilibria")
 C_T = 0
 C_H = 1
 C_ERROR = 2
 C_BASE = 3
 C_COUNT = 4
 C_STOP = 5
-N_CLOCK = 6
+C_REACH = 6
+N_CLOCK = 7
+
+
+def new_clock(t0, h=0.0):
+    """A clock at ``t0`` whose next step is ``h`` (0: chosen by ``adaptive.first_step``), full reach."""
+    clock = np.zeros(N_CLOCK)
+    clock[C_T] = clock[C_BASE] = t0
+    clock[C_H] = h
+    clock[C_REACH] = 1.0
+    return clock
 
 # -- error estimators of an adaptive run (``adaptive.Control.estimator``)
 NO_ESTIMATE = 0  # fixed steps that land on the stops
