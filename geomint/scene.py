@@ -73,7 +73,6 @@ from . import _validate
 from . import io as _io
 from . import level_set as _level_set
 from . import diagnostics as _diagnostics
-from . import expressions as _expressions
 from .method_data import MethodDataError, method_from_data, method_to_data
 from ._kernels.layout import INTERRUPTED
 from .solve import MAX_STEPS, solve, step_count
@@ -304,6 +303,8 @@ class Scene:
     def build_system(self):
         """The system (catalogue or formulas) with this scene's parameters and effects."""
         if self.expressions is not None:
+            from . import expressions as _expressions  # sympy (~0.5 s to import) only for systems as formulas
+
             try:
                 kwargs = _expressions.build(**self.expressions, params=self.parameters, eps=self.eps,
                                             name=self.system, prefix="system.")
@@ -650,6 +651,8 @@ class _Checker:
         return value
 
     def formula_parameters(self, value):
+        from . import expressions as _expressions
+
         try:
             return _expressions.check_parameters(value, "system.parameters")
         except ValueError as exc:
@@ -662,6 +665,8 @@ class _Checker:
         for key in ("H", "S"):
             if key not in value:
                 self.fail(f"system.{key}", "missing; a system as formulas needs H, S and one of J, P.")
+        from . import expressions as _expressions
+
         try:
             _expressions.parse_system(value["H"], value["S"], value.get("J"), value.get("P"), parameters, "system.")
         except ValueError as exc:

@@ -1,4 +1,5 @@
-"""Compile once: kernels load from numba's disk cache in a new process; a pure-Python lane works."""
+"""Compile once: kernels load from numba's disk cache in a new process; a pure-Python lane works; importing
+geomint leaves the heavy optional modules (sympy, matplotlib) unloaded until they are used."""
 
 import os
 import subprocess
@@ -31,6 +32,13 @@ def test_a_second_process_loads_the_kernels_from_the_cache():
     hits, misses, success, seconds = _python(FIRST_SOLVE).split()
     print(f"first solve in a new process (import included): {float(seconds):.2f} s")
     assert (int(hits), int(misses), success) == (1, 0, "True")
+
+
+def test_importing_geomint_loads_neither_sympy_nor_matplotlib():
+    """sympy (~0.5 s) is for systems written as formulas, matplotlib for figures: a run without either does not
+    pay for their import."""
+    loaded = _python("import sys, geomint; print(*[m for m in ('sympy', 'matplotlib') if m in sys.modules])")
+    assert loaded.split() == []
 
 
 @pytest.mark.skipif(os.environ.get("NUMBA_DISABLE_JIT") == "1", reason="this test starts the pure-Python lane")
