@@ -141,8 +141,11 @@ StepResult = namedtuple("StepResult", "x comp H S status iterations evaluations 
 #: the classical Runge-Kutta method (no data)
 RungeKutta4 = namedtuple("RungeKutta4", "stages")
 
-#: the metriplectic discrete-gradient step; ``kind`` is one of the kind markers below
+#: the metriplectic discrete-gradient step; ``kind`` is one of the kind markers below, ``damped`` one of the
+#: damping markers (its type decides at compile time, so an undamped run does not compile the damping factor)
 DiscreteGradientStep = namedtuple("DiscreteGradientStep", "kind max_iter damped compensated coeffs")
+Damped = namedtuple("Damped", "on")
+Undamped = namedtuple("Undamped", "on")
 GonzalezKind = namedtuple("GonzalezKind", "code")
 ItohAbeKind = namedtuple("ItohAbeKind", "code")
 SymmetrizedItohAbeKind = namedtuple("SymmetrizedItohAbeKind", "code")

@@ -11,13 +11,14 @@ round-off in the state does not random-walk.
 """
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 from .discrete_gradient import discrete_field, origin_terms, term_scale
 from .field import field, field_inlined, non_finite_culprit
 from .layout import (
     NEWTON_FAILED, NON_FINITE, OK, UNKNOWN, W_DX1, W_DX2, W_DX3, W_H, W_HISTORY, W_JACOBIAN, W_JACOBIAN_VALID,
-    StepResult,
+    Damped, StepResult, Undamped,
 )
 from .vec3 import ZERO, abs_dot, add, axpy, is_finite, load, norm_inf, scale, solve, sub
 
@@ -83,6 +84,29 @@ def rk4_step(model, eps, hamiltonian, buf, x, comp, h):
         return StepResult(x_new, comp_new, np.nan, np.nan, OK, 0, 4, 0.0, UNKNOWN)
     return StepResult(x_new, comp_new, np.nan, np.nan, NON_FINITE, 0, 4, 0.0,
                       _stage_culprit(model, eps, hamiltonian, buf, x, h))
+
+
+def damped_eps(damped, model, eps, buf, x, h):
+    """``(eps', field evaluations)``: ``eps`` times ``damping_factor`` where ``damped``, else ``eps``.
+
+    ``damped`` is a flag (a stage of a composition, decided at run time) or a
+    ``layout.Damped``/``Undamped`` marker (a standalone step), whose type
+    decides when the step is compiled: an undamped run does not compile the
+    damping factor.
+    """
+    on = damped.on if isinstance(damped, (Damped, Undamped)) else bool(damped)
+    return (eps * damping_factor(model, eps, buf, x, h), 4) if on else (eps, 0)
+
+
+@overload(damped_eps, inline="always")
+def _damped_eps_typed(damped, model, eps, buf, x, h):
+    marker = getattr(damped, "instance_class", None) if isinstance(damped, types.BaseNamedTuple) else None
+    if marker is Undamped:
+        return lambda damped, model, eps, buf, x, h: (eps, 0)
+    if marker is Damped:
+        return lambda damped, model, eps, buf, x, h: (eps * damping_factor(model, eps, buf, x, h), 4)
+    return lambda damped, model, eps, buf, x, h: (eps * damping_factor(model, eps, buf, x, h), 4) if damped else (
+        eps, 0)
 
 
 @njit(error_model="numpy")
@@ -368,7 +392,7 @@ def discrete_gradient_step(kind, max_iter, damped, compensated, coeffs, model, e
     ``H_x`` is the energy the step keeps: the driver passes H(x0), not H(x_n),
     so that the discrete-gradient identity ``dgH . dx = H(x') - H_x`` pulls
     every step back onto the initial level set and the rounding of the states
-    does not random-walk the energy.  ``S_x`` is S(x_n).  With ``damped`` the
+    does not random-walk the energy.  ``S_x`` is S(x_n).  With ``damped`` (``damped_eps``) the
     dissipation is scaled by ``damping_factor`` (stiff problems: the
     midpoint-type step then damps the fast mode instead of reflecting it).
 
@@ -390,10 +414,7 @@ def discrete_gradient_step(kind, max_iter, damped, compensated, coeffs, model, e
     """
     if not compensated:
         comp = ZERO
-    evaluations = 0
-    if damped:
-        eps = eps * damping_factor(model, eps, buf, x, h)
-        evaluations += 4
+    eps, evaluations = damped_eps(damped, model, eps, buf, x, h)
     fresh = not (work[W_HISTORY] > 0.0 and work[W_H] == h and work[W_JACOBIAN_VALID] > 0.0)
     attempt = 0
     status, iterations = NEWTON_FAILED, 0

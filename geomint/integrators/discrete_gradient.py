@@ -61,7 +61,8 @@ class DiscreteGradient(Integrator):
 
     def lower(self, system):
         return layout.DiscreteGradientStep(
-            layout.KIND_MARKERS[self.kind](self.kind), self.max_newton_iter, self.damped, self.compensated, self._coeffs()
+            layout.KIND_MARKERS[self.kind](self.kind), self.max_newton_iter,
+            layout.Damped(True) if self.damped else layout.Undamped(False), self.compensated, self._coeffs()
         )
 
     def discrete_gradients(self, system, x, x_new):
