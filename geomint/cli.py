@@ -135,8 +135,13 @@ def run(scene_name, out_dir=None, quiet=False, out=None, checkpoint_every=None, 
     total = scene.steps_per_trajectory * scene.n_trajectories
     with tqdm(total=total, unit="step", unit_scale=True, disable=quiet, delay=1.0, file=sys.stderr,
               desc=scene.name) as bar:
+
+        def prepare(system, method):
+            _prepare(system, method, scene.h, quiet)
+            bar.unpause()  # the bar's clock (rate, ETA) starts after the compilation
+
         try:
-            result = run_scene(scene, progress=bar.update, checkpoint=checkpoint, resume=resume)
+            result = run_scene(scene, progress=bar.update, checkpoint=checkpoint, resume=resume, before_steps=prepare)
         except CheckpointError as exc:
             raise OutputError(f"--resume: {exc}") from None
     with atomic(data) as temporary:
@@ -159,6 +164,25 @@ def run(scene_name, out_dir=None, quiet=False, out=None, checkpoint_every=None, 
         if not sol.success:
             print(f"geomint: run failed: x0 = {sol.x[0].tolist()}: {sol.message}", file=sys.stderr)
     return OK if result.success else FAILED
+
+
+def _prepare(system, method, h, quiet):
+    """Load the compiled kernels a scene's run uses (a first run compiles them) before its progress bar
+    counts: a bar that counted the compilation showed a rate and an ETA off by minutes.  One step of the
+    method from an arbitrary point, its result discarded: the types of the model and the method, not their
+    values, select the compiled code.  Best effort: a point where the system is undefined only leaves the
+    compilation to the run."""
+    if not quiet:
+        print("geomint: loading the compiled kernels ...", end=" ", file=sys.stderr, flush=True)
+    started = time.perf_counter()
+    try:
+        solve(system, np.full(3, 0.5), (0.0, h), h, method=method)
+    except (ValueError, TypeError):  # refused at the boundary: the run itself reports the scene's own errors
+        pass
+    seconds = time.perf_counter() - started
+    if not quiet:
+        note = " (compiled on this first run; cached on disk for the next ones)" if seconds > 2.0 else ""
+        print(f"{seconds:.2f} s{note}", file=sys.stderr)
 
 
 def _check_output(folder, paths):

@@ -482,8 +482,9 @@ class SceneResult:
         }
 
 
-def run_scene(scene, progress=None, checkpoint=None, resume=False):
-    """Run a scene; ``progress(n)`` is called with the number of steps done since its last call.
+def run_scene(scene, progress=None, checkpoint=None, resume=False, before_steps=None):
+    """Run a scene; ``progress(n)`` is called with the number of steps done since its last call, and
+    ``before_steps(system, method)`` once the scene and its checkpoint are validated, before the first step.
 
     Validates the scene fully (``Scene.resolved``), integrates each initial
     state with ``geomint.solve``, and computes only the recorded observables.
@@ -502,6 +503,8 @@ def run_scene(scene, progress=None, checkpoint=None, resume=False):
     save_every = None if scene.every == "final" else scene.every
     checkpoint = _checkpoint_folder(scene, checkpoint, resume)
     folder = None if checkpoint is None else checkpoint[0]
+    if before_steps is not None:
+        before_steps(system, method)
     solutions, wall, partial = [], [], False
     for i, x0 in enumerate(states):
         if folder is not None and (folder / f"{i}.npz").exists():  # finished before the interruption

@@ -34,8 +34,11 @@ def _scene(tmp_path, text=SHORT, name="short"):
 def test_run_writes_data_summary_and_figures(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["run", str(_scene(tmp_path)), "--out", str(out)]) == OK
-    report = capsys.readouterr().out
+    captured = capsys.readouterr()
+    report = captured.out
     assert "3 trajectories, 120 steps" in report and "S rises: 0" in report
+    # the kernels are loaded (or compiled) before the progress bar starts, and the time it took is said
+    assert re.match(r"geomint: loading the compiled kernels \.\.\. \d+\.\d\d s", captured.err)
     data = np.load(out / "short.npz")
     assert sorted(data.files) == ["S", "dS_dt", "rows", "status", "t", "x", "x0"]
     assert data["x"].shape == (3, 11, 3) and np.all(data["status"] == 0)
