@@ -294,7 +294,6 @@ def march(model, eps, hamiltonian, method, control, state, work, clock, stops, b
     anchor = state[STATE_ANCHOR]
     S_x = state[STATE_S]
     H_x = np.nan  # H at x, evaluated when the anchor's reach is short of 1
-    reach = clock[C_REACH]
     exponent = 1.0 / (control.error_order + 1.0)
     after_rejection = False
     streak_h, streak_err = 0.0, 0.0  # the first rejected attempt of the current streak
@@ -315,10 +314,10 @@ def march(model, eps, hamiltonian, method, control, state, work, clock, stops, b
         if landing:
             h = remaining
         H_target = anchor
-        if reach < 1.0:
+        if clock[C_REACH] < 1.0:
             if np.isnan(H_x):
                 H_x = model.H(load(buf, x), p)
-            H_target = H_x + reach * (anchor - H_x)
+            H_target = H_x + clock[C_REACH] * (anchor - H_x)
         r, err = estimated_step(method, control, model, eps, hamiltonian, buf, x, comp, H_target, S_x, h, work)
         counters[NEWTON_ITERATIONS] += r.iterations
         counters[FIELD_EVALUATIONS] += r.evaluations
@@ -340,10 +339,9 @@ def march(model, eps, hamiltonian, method, control, state, work, clock, stops, b
         if control.adaptive and status == OK and not err <= 1.0:  # rejected (a NaN estimate too)
             if streak_h == 0.0:
                 streak_h, streak_err = h, err
-            elif reach > 0.0 and abs(h) <= 0.5 * abs(streak_h) and err >= 0.5 * streak_err:
+            elif clock[C_REACH] > 0.0 and abs(h) <= 0.5 * abs(streak_h) and err >= 0.5 * streak_err:
                 # the estimate does not fall with the step: the anchor's pull (module docstring)
-                reach = 0.0 if reach < 4.0 * REACH_MIN else 0.25 * reach
-                clock[C_REACH] = reach
+                clock[C_REACH] = 0.0 if clock[C_REACH] < 4.0 * REACH_MIN else 0.25 * clock[C_REACH]
                 clock[C_H] = streak_h
                 streak_h = 0.0
                 counters[REJECTED] += 1
@@ -386,9 +384,8 @@ def march(model, eps, hamiltonian, method, control, state, work, clock, stops, b
             clock[C_COUNT] = 0.0
         else:
             clock[C_COUNT] += 1.0
-        if reach < 1.0 and err <= 0.5:  # the anchor's reach grows back while the steps are well inside
-            reach = min(1.0, 2.0 * reach) if reach > 0.0 else REACH_MIN
-            clock[C_REACH] = reach
+        if clock[C_REACH] < 1.0 and err <= 0.5:  # the anchor's reach grows back while the steps are well inside
+            clock[C_REACH] = min(1.0, 2.0 * clock[C_REACH]) if clock[C_REACH] > 0.0 else REACH_MIN
         after_rejection = False
         streak_h = 0.0
         x, comp, S_x, H_x = x_new, comp_new, S_new, H_new
