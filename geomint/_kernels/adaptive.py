@@ -80,6 +80,7 @@ from .._cache import CACHE
 from .composition import pull_back
 from .driver import _save, step
 from .field import field, non_finite_culprit
+from .jit import inner
 from .layout import (
     C_BASE, C_COUNT, C_ERROR, C_H, C_REACH, C_STOP, C_T, CULPRIT, DOUBLING, FAILED_STEP, FIELD_EVALUATIONS, NEWTON_FAILED,
     NEWTON_ITERATIONS, NON_FINITE, OK, PROJECTION_FAILED, RAISED, REJECTED, ROWS, RK4_REFERENCE, STATE_ANCHOR,
@@ -114,7 +115,7 @@ def proportional_tolerance(estimator, order, rtol):
     return rtol ** (1.0 / order) if estimator == DOUBLING and order >= 4 else 1.0
 
 
-@njit(error_model="numpy")
+@inner
 def error_norm(e, e_low, x, x_new, rtol, atol, blended):
     """The controller's norm of the estimate ``e`` (and DOP853's ``e_low`` where ``blended``).
 
@@ -139,7 +140,7 @@ def error_norm(e, e_low, x, x_new, rtol, atol, blended):
     return m / np.sqrt((m + 0.01 * m_low) * 3.0)
 
 
-@njit(error_model="numpy")
+@inner
 def _invariants_if_unknown(model, buf, r):
     if np.isnan(r.H) or np.isnan(r.S):
         load(buf, r.x)
@@ -147,7 +148,7 @@ def _invariants_if_unknown(model, buf, r):
     return r.H, r.S
 
 
-@njit(error_model="numpy")
+@inner
 def _steps(method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work, doubling):
     """One step of ``h``; with ``doubling`` also two of ``h/2`` (kept), and ``e = (x_2 - x_1) / (2^p - 1)``.
     Returns ``(StepResult, e)``.  One call site of the step, so it is compiled (inlined) once."""
@@ -172,13 +173,13 @@ def _steps(method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, 
     return StepResult(r.x, r.comp, r.H, r.S, r.status, iterations, evaluations, r.residual, r.culprit), e
 
 
-@njit(error_model="numpy")
+@inner
 def _estimated_pair(method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work):
     r, e, e_low = pair_step(method, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work, control.adaptive)
     return r, error_norm(e, e_low, x, r.x, control.rtol, control.atol, method.e_low.shape[0] > 0)
 
 
-@njit(error_model="numpy")
+@inner
 def _estimated_discrete_gradient(method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work):
     against_rk4 = control.adaptive and control.estimator == RK4_REFERENCE
     reference = ZERO
@@ -193,7 +194,7 @@ def _estimated_discrete_gradient(method, control, model, eps, hamiltonian, buf, 
     return r, error_norm(e, ZERO, x, r.x, control.rtol, control.atol, False) if control.adaptive else 0.0
 
 
-@njit(error_model="numpy")
+@inner
 def _estimated_by_doubling(method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work):
     r, e = _steps(method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work, control.adaptive)
     return r, error_norm(e, ZERO, x, r.x, control.rtol, control.atol, False) if control.adaptive else 0.0
@@ -216,7 +217,7 @@ def _estimated_step_typed(method, control, model, eps, hamiltonian, buf, x, comp
     )
 
 
-@njit(error_model="numpy")
+@inner
 def _next_factor(err, previous, exponent, after_rejection):
     """The PI controller's factor for the next step after an accepted one with norm ``err``."""
     if err == 0.0:

@@ -47,6 +47,7 @@ from numba.extending import overload
 
 from .._cache import CACHE
 from .field import dissipative
+from .jit import inner
 from .layout import AVF, ITOH_ABE, SYMMETRIZED_ITOH_ABE, AVFKind, GonzalezKind, ItohAbeKind, SymmetrizedItohAbeKind
 from .vec3 import ZERO, abs_dot, as_vector, axpy, cross, dot, is_finite, load, norm_inf, scale, sub
 
@@ -57,21 +58,21 @@ EPS = np.finfo(np.float64).eps
 SWITCH = EPS ** (1.0 / 3.0)
 
 
-@njit(error_model="numpy")
+@inner
 def term_scale(f_old, f_new, gradient, x, base):
     """``max(|F(x)|, |F(x')|, sum_i |d_i F x_i|, base)``: the size of the terms of F (module docstring);
     ``base`` is ``origin_terms`` at x."""
     return max(abs(f_old), abs(f_new), abs_dot(gradient, x), base)
 
 
-@njit(error_model="numpy")
+@inner
 def origin_terms(origin, at, x):
     """``|F(0)| + sum_i |d_i F(0) x_i|``, with ``F(0), grad F(0)`` at ``origin[at:at + 4]``
     (``layout.Model.origin``: H at 0, S at 4): the constant and linear terms of F at x."""
     return abs(origin[at]) + abs(origin[at + 1] * x[0]) + abs(origin[at + 2] * x[1]) + abs(origin[at + 3] * x[2])
 
 
-@njit(error_model="numpy")
+@inner
 def gonzalez(grad_mid, f_old, f_new, dx, x_new, gain, base):
     """Gonzalez's discrete gradient (J. Nonlinear Sci. 6 (1996) 449, doi:10.1007/BF02440162).
 
@@ -105,19 +106,19 @@ def gonzalez(grad_mid, f_old, f_new, dx, x_new, gain, base):
     return axpy(defect / largest / length2, unit, grad_mid), bound / (largest * np.sqrt(length2))
 
 
-@njit(error_model="numpy")
+@inner
 def _vertex(x, x_new, mask):
     """The corner of the box spanned by ``x, x'`` with coordinate i from x' where bit i of ``mask`` is set."""
     return (x_new[0] if mask & 1 else x[0], x_new[1] if mask & 2 else x[1], x_new[2] if mask & 4 else x[2])
 
 
-@njit(error_model="numpy")
+@inner
 def _value(F, params, buf, x, x_new, mask):
     load(buf, _vertex(x, x_new, mask))
     return F(buf, params)
 
 
-@njit(error_model="numpy")
+@inner
 def _edge_quotient(grad_F, params, buf, x, x_new, i, mask, f_lo, f_hi, size, base):
     """``[F(hi) - F(lo)] / (x'_i - x_i)`` along the box edge from corner ``mask`` in direction i.
 
@@ -134,7 +135,7 @@ def _edge_quotient(grad_F, params, buf, x, x_new, i, mask, f_lo, f_hi, size, bas
     return (f_hi - f_lo) / d, 4.0 * EPS * (abs(f_lo) + abs(f_hi) + base) / abs(d)
 
 
-@njit(error_model="numpy")
+@inner
 def itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, base):
     """Itoh-Abe's discrete gradient (J. Comput. Phys. 76 (1988) 85, doi:10.1016/0021-9991(88)90132-5).
 
@@ -151,7 +152,7 @@ def itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, base):
     return (q0, q1, q2), max(n0, n1, n2)
 
 
-@njit(error_model="numpy")
+@inner
 def _symmetrized_component(grad_F, params, buf, x, x_new, f, i, size, base):
     """Component i of Itoh-Abe's gradient averaged over the 6 orderings.
 
@@ -168,7 +169,7 @@ def _symmetrized_component(grad_F, params, buf, x, x_new, f, i, size, base):
     return (2.0 * q0 + q1 + q2 + 2.0 * q3) / 6.0, max(n0, n1, n2, n3)
 
 
-@njit(error_model="numpy")
+@inner
 def symmetrized_itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, base):
     """Itoh-Abe's discrete gradient averaged over all 6 orderings of the coordinates.
 
@@ -193,7 +194,7 @@ def symmetrized_itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, b
     return (q0, q1, q2), max(n0, n1, n2)
 
 
-@njit(error_model="numpy")
+@inner
 def average_gradient(grad_F, params, buf, x, dx, coeffs):
     """``sum_k w_k grad F(x + s_k dx)``, nodes ``s = coeffs[:n]``, weights ``w = coeffs[n:]`` on [0, 1]."""
     n = coeffs.shape[0] // 2
@@ -221,7 +222,7 @@ def _avf_dg(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, 
     return gonzalez(average_gradient(grad_F, params, buf, x, dx, coeffs), f_old, f_new, dx, x_new, gain, base)
 
 
-@njit(error_model="numpy")
+@inner
 def _exact(dg_noise, f_old, f_new, x, x_new, gain, base):
     """An Itoh-Abe gradient made exact again where edges switched to derivatives (module docstring):
     Gonzalez's projection of it onto ``dg . dx = F(x') - F(x)``, applied only where the defect exceeds
@@ -248,7 +249,7 @@ _INLINED = {marker: njit(inline="always")(dg) for marker, dg in _BY_MARKER.items
 _gonzalez_inlined = _INLINED[GonzalezKind]
 #: ... and as a call (the less usual stages of composed programs)
 _itoh_abe_called, _symmetrized_called, _avf_called = (
-    njit(error_model="numpy")(dg) for dg in (_itoh_abe_dg, _symmetrized_dg, _avf_dg))
+    inner(dg) for dg in (_itoh_abe_dg, _symmetrized_dg, _avf_dg))
 
 
 @njit(inline="always")
@@ -275,7 +276,7 @@ def discrete_gradient(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_n
     return dg(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base)
 
 
-@njit(error_model="numpy")
+@inner
 def discrete_axial(axial, grad_s):
     """``Jbar = (J . n) n`` with ``n = dgS / |dgS|``: parallel to dgS, so S is a Casimir.
 
@@ -292,7 +293,7 @@ def discrete_axial(axial, grad_s):
     return scale(dot(axial, n) / dot(n, n), n)
 
 
-@njit(error_model="numpy")
+@inner
 def polish(F, dg_h, dg_s, eps):
     """F with ``F . dgH = 0`` and ``F . dgS = -eps |dgH x dgS|^2`` restored to the rounding of |F|.
 
@@ -367,8 +368,8 @@ def _discrete_field_with(discrete_gradient):
 
 #: the discrete field of each kind of discrete gradient, the gradient inlined (a call carrying the user's functions
 #: costs more than the quotient), and of integer codes (composed programs: chosen at run time)
-_FIELDS = {marker: njit(error_model="numpy")(_discrete_field_with(dg)) for marker, dg in _INLINED.items()}
-_FIELD_BY_CODE = njit(error_model="numpy")(_discrete_field_with(_by_code))
+_FIELDS = {marker: inner(_discrete_field_with(dg)) for marker, dg in _INLINED.items()}
+_FIELD_BY_CODE = inner(_discrete_field_with(_by_code))
 
 
 def discrete_field(kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales):

@@ -15,6 +15,7 @@ from numba.extending import overload
 from .._cache import CACHE
 from .composition import composed_step
 from .field import non_finite_culprit
+from .jit import inner
 from .layout import (
     CULPRIT, FAILED_STEP, FIELD_EVALUATIONS, NEWTON_ITERATIONS, NON_FINITE, OK, RAISED, ROWS, STATE_ANCHOR, STATE_COMP,
     STATE_S, STATE_X, STATUS, STEPS, USER_RAISED, ComposedStep, DiscreteGradientStep, EmbeddedPairStep, RungeKutta4,
@@ -68,7 +69,7 @@ def _step_typed(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h,
     )
 
 
-@njit(error_model="numpy")
+@inner
 def _save(out, t, x, H_x, S_x):
     row = out.counters[ROWS]
     out.t[row] = t

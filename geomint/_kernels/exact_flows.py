@@ -20,6 +20,7 @@ import numpy as np
 from numba import njit
 
 from .._cache import CACHE
+from .jit import inner
 from .vec3 import as_vector, load
 
 EPS = np.finfo(np.float64).eps
@@ -195,7 +196,7 @@ def rigid_body_flow_at(a, b, c, m, times, out):
         out[i, 0], out[i, 1], out[i, 2] = rigid_body_flow(a, b, c, m, times[i])
 
 
-@njit(error_model="numpy")
+@inner
 def rotate(x, axis, angle):
     """``x`` rotated by ``angle`` about the coordinate axis ``axis`` (right-handed)."""
     j, k = (axis + 1) % 3, (axis + 2) % 3
@@ -204,7 +205,7 @@ def rotate(x, axis, angle):
     return _set(out, k, sn * x[j] + cs * x[k])
 
 
-@njit(error_model="numpy")
+@inner
 def rotor_splitting(grad_H, params, buf, x, h):
     """One step of the symmetric free-rotor splitting of ``m' = grad H x m``, order 2.
 
@@ -220,7 +221,7 @@ def rotor_splitting(grad_H, params, buf, x, h):
     return x
 
 
-@njit(error_model="numpy")
+@inner
 def rotation(J, params, buf, x, h):
     """The exact flow of ``x' = x x J`` with ``J`` constant: a rotation about ``J`` by ``-|J| h``.
 

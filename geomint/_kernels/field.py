@@ -16,6 +16,7 @@ import numpy as np
 from numba import njit
 
 from .._cache import CACHE
+from .jit import inner
 from .layout import FN_GRAD_H, FN_GRAD_S, FN_H, FN_POISSON, FN_S, UNKNOWN
 from .vec3 import ZERO, as_vector, axpy, cross, is_finite, load, norm_inf, scale
 
@@ -46,7 +47,7 @@ def dissipative(grad_h, grad_s, eps, base):
     return _dissipative_scaled(grad_h, grad_s, eps, base, a, b)
 
 
-@njit(error_model="numpy")
+@inner
 def _dissipative_scaled(grad_h, grad_s, eps, base, a, b):
     """``dissipative`` for gradients whose largest components ``a``, ``b`` lie outside the safe range."""
     i = math.frexp(a)[1]
@@ -69,7 +70,7 @@ def _field(model, eps, hamiltonian, buf, x):
 
 
 #: the field as a call (Jacobians, starts, failure reports: compiled once)
-field = njit(error_model="numpy")(_field)
+field = inner(_field)
 #: the field inlined where it is called: the explicit steps' stages, where a call costs more than the arithmetic
 field_inlined = njit(inline="always")(_field)
 
@@ -95,7 +96,7 @@ def evaluate(model, X, out_H, out_S, out_grad_H, out_grad_S, out_J):
             out_J[i, k] = axial[k]
 
 
-@njit(error_model="numpy")
+@inner
 def non_finite_culprit(model, buf, x, hamiltonian):
     """The first user function (``layout.FN_*``) that is not finite at ``x``, 0 if none is.
 

@@ -158,8 +158,17 @@ KIND_MARKERS = {GONZALEZ: GonzalezKind, ITOH_ABE: ItohAbeKind, SYMMETRIZED_ITOH_
 #: ``projection`` is ``NO_PROJECTION`` or ``STANDARD``; the stages live in ``slots`` workspace slots
 EmbeddedPairStep = namedtuple("EmbeddedPairStep", "a b e e_low projection max_iter slots")
 
-#: splittings, compositions and projections: a flat program (``composition``)
-ComposedStep = namedtuple("ComposedStep", "coeffs iopts slots")
+#: splittings, compositions and projections: a flat program (``composition``); ``uses`` is a tuple of
+#: markers, one for each leaf the program can run (a discrete-gradient leaf by its kind marker above, the others
+#: by ``LEAF_MARKERS``) and ``Damped(True)`` if a stage is damped: their types decide what
+#: ``composition.leaf_step`` compiles, so a Yoshida4(Gonzalez()) run compiles neither RK4 nor the exact flows
+ComposedStep = namedtuple("ComposedStep", "coeffs iopts slots uses")
+RK4Leaf = namedtuple("RK4Leaf", "code")
+RigidBodyFlowLeaf = namedtuple("RigidBodyFlowLeaf", "code")
+RotorSplittingLeaf = namedtuple("RotorSplittingLeaf", "code")
+RotationLeaf = namedtuple("RotationLeaf", "code")
+LEAF_MARKERS = {LEAF_RK4: RK4Leaf, LEAF_RIGID_BODY_FLOW: RigidBodyFlowLeaf, LEAF_ROTOR_SPLITTING: RotorSplittingLeaf,
+                LEAF_ROTATION: RotationLeaf}
 
 #: the model as every kernel receives it: the user's functions (compiled, first-class), params, and
 #: ``origin = (H(0), grad H(0), S(0), grad S(0))`` (8 floats, 0 where not finite), from which the

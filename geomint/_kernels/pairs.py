@@ -12,16 +12,16 @@ workspace (``work``), so threads of an ensemble share nothing.
 """
 
 import numpy as np
-from numba import njit
 
 from .field import field, non_finite_culprit
+from .jit import inner
 from .layout import NO_PROJECTION, NON_FINITE, OK, PROJECTION_FAILED, UNKNOWN, StepResult
 from .projection import project_step
 from .steps import advance
 from .vec3 import ZERO, axpy, is_finite
 
 
-@njit(error_model="numpy")
+@inner
 def _combine(k, weights, h, count):
     """``h sum_j weights_j K_j`` over the first ``count`` rows of ``K`` (skipping zero weights)."""
     total = ZERO
@@ -31,7 +31,7 @@ def _combine(k, weights, h, count):
     return total
 
 
-@njit(error_model="numpy")
+@inner
 def pair_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work, estimate):
     """One step; returns ``(StepResult, e, e_low)`` (``e``, ``e_low`` zero when ``estimate`` is False).
 

@@ -16,9 +16,9 @@ gradient part, where the feasible set shrinks to the point ``x_n``).
 """
 
 import numpy as np
-from numba import njit
 
 from .discrete_gradient import origin_terms, term_scale
+from .jit import inner
 from .steps import _kept
 from .vec3 import as_vector, axpy, dot, load, norm_inf
 
@@ -26,14 +26,14 @@ EPS = np.finfo(np.float64).eps
 SQRT_EPS = np.sqrt(EPS)
 
 
-@njit(error_model="numpy")
+@inner
 def rise_tolerance(S_old, S_new, grad_s, x, base):
     """Round-off in ``S(x') - S(x)``: ``2 eps max(|S|, |S'|, |grad S|_inf |x|_inf, base)``, ``base`` the
     constant and linear terms of S (``discrete_gradient.origin_terms``)."""
     return 2.0 * EPS * max(abs(S_old), abs(S_new), norm_inf(grad_s) * norm_inf(x), base)
 
 
-@njit(error_model="numpy")
+@inner
 def project_energy(model, buf, x, target, max_iter):
     """``(y, H(y), iterations)``: ``y = x + lambda grad H(x)`` with ``H(y) = target`` to round-off.
 
@@ -65,7 +65,7 @@ def project_energy(model, buf, x, target, max_iter):
     return best, best_H, max_iter
 
 
-@njit(error_model="numpy")
+@inner
 def project_both(model, buf, x, H_target, S_target, max_iter):
     """``(y, H(y), S(y), converged, iterations)``: ``y = x + lambda grad H(x) + mu grad S(x)``
     with ``H(y) = H_target`` and ``S(y) = S_target``, by Newton's method on ``(lambda, mu)``.
@@ -103,7 +103,7 @@ def project_both(model, buf, x, H_target, S_target, max_iter):
     return y, H_y, S_y, False, max_iter
 
 
-@njit(error_model="numpy")
+@inner
 def on_level(model, buf, y, H_y, S_y, anchor, S_x):
     """``y`` is on ``H = anchor`` as a projection must leave it (64 ulp of the terms of H) and S has
     not risen beyond round-off (False where H or S is not known, as after an RK4 step)."""
@@ -116,7 +116,7 @@ def on_level(model, buf, y, H_y, S_y, anchor, S_x):
             and S_y - S_x <= rise_tolerance(S_x, S_y, grad_s, y, origin_terms(model.origin, 4, y)))
 
 
-@njit(error_model="numpy")
+@inner
 def project_step(model, buf, y, H_y, S_y, anchor, S_x, max_iter):
     """A step's result ``y`` (with ``H(y)``, ``S(y)`` or NaN) moved onto ``{H = anchor, S <= S_x}``.
 

@@ -16,6 +16,7 @@ from numba.extending import overload
 
 from .discrete_gradient import discrete_field, origin_terms, term_scale
 from .field import field, field_inlined, non_finite_culprit
+from .jit import inner
 from .layout import (
     NEWTON_FAILED, NON_FINITE, OK, UNKNOWN, W_DX1, W_DX2, W_DX3, W_H, W_HISTORY, W_JACOBIAN, W_JACOBIAN_VALID,
     Damped, StepResult, Undamped,
@@ -70,12 +71,12 @@ def _rk4_increment_of(xi):
 
 
 #: the RK4 increment as a call (starts and error estimates of implicit steps)
-rk4_increment = njit(error_model="numpy")(_rk4_increment_of(field))
+rk4_increment = inner(_rk4_increment_of(field))
 #: inlined, stages and all, into ``rk4_step``: the explicit baseline runs at the cost of its field evaluations
 _rk4_increment_inlined = njit(inline="always")(_rk4_increment_of(field_inlined))
 
 
-@njit(error_model="numpy")
+@inner
 def rk4_step(model, eps, hamiltonian, buf, x, comp, h):
     """Classical Runge-Kutta, order 4: the generic, structure-blind baseline.  Four field evaluations,
     no H or S."""
@@ -109,7 +110,7 @@ def _damped_eps_typed(damped, model, eps, buf, x, h):
         eps, 0)
 
 
-@njit(error_model="numpy")
+@inner
 def _stage_culprit(model, eps, hamiltonian, buf, x, h):
     """The user function that is not finite at the first RK4 stage point where one is not (0 if none):
     a stage point can lie where the user's functions are undefined though x and x' do not."""
@@ -122,7 +123,7 @@ def _stage_culprit(model, eps, hamiltonian, buf, x, h):
     return UNKNOWN
 
 
-@njit(error_model="numpy")
+@inner
 def _jacobian(model, eps, hamiltonian, buf, x, f0):
     """Columns of ``D xi(x)`` by forward differences (3 field calls); ``f0 = xi(x)``."""
     size = norm_inf(x)
@@ -133,7 +134,7 @@ def _jacobian(model, eps, hamiltonian, buf, x, f0):
     return c0, c1, c2
 
 
-@njit(error_model="numpy")
+@inner
 def damping_factor(model, eps, buf, x, h):
     """``phi = 1 / sqrt(1 + (h kappa / 2)^2)``, ``kappa = |D (eps xi_g)(x)|_inf`` (4 gradient calls).
 
@@ -156,7 +157,7 @@ def damping_factor(model, eps, buf, x, h):
     return 1.0 / np.sqrt(1.0 + z * z)
 
 
-@njit(error_model="numpy")
+@inner
 def _store_jacobian(work, c0, c1, c2):
     for k in range(3):
         work[W_JACOBIAN + k] = c0[k]
@@ -165,7 +166,7 @@ def _store_jacobian(work, c0, c1, c2):
     work[W_JACOBIAN_VALID] = 1.0
 
 
-@njit(error_model="numpy")
+@inner
 def _newton_matrix(work, h):
     """Rows of ``I - h/2 D xi`` from the slot's stored Jacobian (columns)."""
     a = -0.5 * h
@@ -177,13 +178,13 @@ def _newton_matrix(work, h):
     )
 
 
-@njit(error_model="numpy")
+@inner
 def _residual(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h, x_new, scales):
     F = discrete_field(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, x_new, h, scales)[0]
     return sub(sub(x_new, x), scale(h, F))
 
 
-@njit(error_model="numpy")
+@inner
 def _residual_matrix(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h, x_new, scales):
     """Rows of the Jacobian of ``R(x') = x' - x - h F(x, x')`` at ``x_new`` (4 discrete-field calls)."""
     r0 = _residual(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h, x_new, scales)
@@ -198,7 +199,7 @@ def _residual_matrix(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h,
     return ((c0[0], c1[0], c2[0]), (c0[1], c1[1], c2[1]), (c0[2], c1[2], c2[2]))
 
 
-@njit(error_model="numpy")
+@inner
 def _kept(old, new, terms, ulps, direction):
     """``new - old`` within ``ulps`` of ``terms``: in absolute value (``direction = 0``), or not
     rising along ``direction`` (the sign of ``h``: S must not rise forward, not fall backward)."""
@@ -206,7 +207,7 @@ def _kept(old, new, terms, ulps, direction):
     return change <= ulps * EPS * terms
 
 
-@njit(error_model="numpy")
+@inner
 def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, dx, m):
     """Solve ``x' = x + h F(x, x')`` from the increment ``dx`` with the Newton matrix ``m``.
 
@@ -316,7 +317,7 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
     return NEWTON_FAILED, x_new, comp_new, H_x, S_x, iteration, evaluations, error, UNKNOWN
 
 
-@njit(error_model="numpy")
+@inner
 def _predictor(work):
     """The increment extrapolated from the slot's last (up to) three of the same ``h``:
     ``dx_1``, ``2 dx_1 - dx_2`` or ``3 dx_1 - 3 dx_2 + dx_3``, error O(h^2), O(h^3), O(h^4)."""
@@ -330,7 +331,7 @@ def _predictor(work):
     return add(scale(3.0, sub(d1, d2)), d3)
 
 
-@njit(error_model="numpy")
+@inner
 def _remember(work, dx, h):
     same = work[W_H] == h and work[W_HISTORY] > 0.0
     for k in range(3):
@@ -341,7 +342,7 @@ def _remember(work, dx, h):
     work[W_H] = h
 
 
-@njit(error_model="numpy")
+@inner
 def seed_predictor(work, dx, h):
     """Make the slot's next attempt with step ``h`` start from the increment ``dx`` (an adaptive run seeds
     the explicit RK4 increment its error estimate computes: O(h^3) from the root).  Used only while
@@ -352,7 +353,7 @@ def seed_predictor(work, dx, h):
     work[W_H] = h
 
 
-@njit(error_model="numpy")
+@inner
 def _attempts(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, work, first):
     """The starts a step tries when it has no extrapolated one, or when that failed (``first = 1``), in turn:
     a fresh Jacobian and the linearly implicit start; the explicit RK4 increment; a fresh Jacobian with the
@@ -384,7 +385,7 @@ def _attempts(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x
     return status, x_new, comp_new, H_new, S_new, iterations, evaluations, rate, culprit, attempt
 
 
-@njit(error_model="numpy")
+@inner
 def discrete_gradient_step(kind, max_iter, damped, compensated, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x,
                            h, work):
     """One metriplectic discrete-gradient step ``x' = x + h F(x, x')`` (``discrete_field``), solved to round-off.
@@ -440,7 +441,7 @@ def discrete_gradient_step(kind, max_iter, damped, compensated, coeffs, model, e
     return StepResult(x_new, comp_new, H_new, S_new, OK, iterations, evaluations, float(attempt), UNKNOWN)
 
 
-@njit(error_model="numpy")
+@inner
 def _start(work, h, f0):
     """The linearly implicit midpoint increment ``(I - h/2 D xi)^-1 h xi(x)`` (explicit Euler where
     that matrix is nearly singular)."""

@@ -43,13 +43,23 @@ class Program:
         header = [len(self.gammas), len(self.stages), int(self.monotone), self.projection, self.max_iter, int(anchor)]
         coeffs = [*self.gammas, *(fraction for _, _, fraction in self.stages)]
         rows = []
-        for method, flow in [(method, flow) for method, flow, _ in self.stages] + [(Gonzalez(), "full")]:
+        uses = {}
+        for k, (method, flow) in enumerate([(method, flow) for method, flow, _ in self.stages] + [(Gonzalez(), "full")]):
             leaf, kind, max_iter, damped, compensated, data = method.stage(system)
             rows += [leaf, FLOWS[flow], kind, max_iter, int(damped), int(compensated), len(coeffs), len(data)]
             coeffs += [float(c) for c in data]
+            if k < len(self.stages) or self.monotone:  # the safeguard's fallback runs only in monotone programs
+                uses[leaf, kind if leaf == layout.LEAF_DISCRETE_GRADIENT else 0] = damped
         iopts = np.array(header + rows, dtype=np.int64)
         slots = len(self.gammas) * len(self.stages) + 1
-        return layout.ComposedStep(np.array(coeffs, dtype=np.float64), iopts, slots)
+        return layout.ComposedStep(np.array(coeffs, dtype=np.float64), iopts, slots, _markers(uses))
+
+
+def _markers(uses):
+    """``ComposedStep.uses`` from ``{(leaf code, kind code): damped}``, in a fixed order (one compiled type per set)."""
+    markers = tuple(layout.KIND_MARKERS[kind](kind) if leaf == layout.LEAF_DISCRETE_GRADIENT else
+                    layout.LEAF_MARKERS[leaf](leaf) for leaf, kind in sorted(uses))
+    return markers + ((layout.Damped(True),) if any(uses.values()) else ())
 
 
 class Programmed:
