@@ -137,3 +137,17 @@ def test_traits_are_instance_facts_and_the_cli_prints_them():
     out = StringIO()
     list_all(out)
     assert "property object" not in out.getvalue() and "yoshida6                order 6" in out.getvalue()
+
+
+def test_a_damped_stage_stays_damped_beside_undamped_stages_of_its_kind():
+    """A program compiles the damping factor when any stage is damped (``ComposedStep.uses``), however its
+    stages of the same discrete gradient are ordered: the damped gradient stage changes the step."""
+    body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=5.0)
+    x0 = [np.cos(1.1), 0.0, np.sin(1.1)]
+    finals = {}
+    for name, gradient_part in (("damped", geomint.DampedGonzalez()), ("undamped", geomint.Gonzalez())):
+        method = geomint.Strang(geomint.Gonzalez(), gradient_part)
+        sol = geomint.solve(body, x0, (0.0, 1.0), 0.1, method=method)
+        assert sol.success, sol.message
+        finals[name] = sol.x_final
+    assert np.max(np.abs(finals["damped"] - finals["undamped"])) > 1e-6, finals

@@ -49,7 +49,8 @@ class Program:
             rows += [leaf, FLOWS[flow], kind, max_iter, int(damped), int(compensated), len(coeffs), len(data)]
             coeffs += [float(c) for c in data]
             if k < len(self.stages) or self.monotone:  # the safeguard's fallback runs only in monotone programs
-                uses[leaf, kind if leaf == layout.LEAF_DISCRETE_GRADIENT else 0] = damped
+                key = leaf, kind if leaf == layout.LEAF_DISCRETE_GRADIENT else 0
+                uses[key] = uses.get(key, False) or bool(damped)
         iopts = np.array(header + rows, dtype=np.int64)
         slots = len(self.gammas) * len(self.stages) + 1
         return layout.ComposedStep(np.array(coeffs, dtype=np.float64), iopts, slots, _markers(uses))
