@@ -151,3 +151,26 @@ def test_a_damped_stage_stays_damped_beside_undamped_stages_of_its_kind():
         assert sol.success, sol.message
         finals[name] = sol.x_final
     assert np.max(np.abs(finals["damped"] - finals["undamped"])) > 1e-6, finals
+
+
+USES = [
+    (geomint.Strang(geomint.Gonzalez(), geomint.AVF()), {"GonzalezKind", "AVFKind"}),
+    (geomint.Lie(geomint.RigidBodyFlow(), geomint.Gonzalez()), {"RigidBodyFlowLeaf", "GonzalezKind"}),
+    (geomint.Yoshida4(geomint.AVF()), {"AVFKind"}),
+    # the monotone safeguard falls back on a Gonzalez step
+    (geomint.Yoshida4(geomint.AVF(), monotone=True), {"AVFKind", "GonzalezKind"}),
+    (geomint.Projected(geomint.RK4()), {"RK4Leaf"}),
+    (geomint.Projected(geomint.Yoshida4(geomint.SymmetrizedItohAbe()), symmetric=True), {"SymmetrizedItohAbeKind"}),
+    (geomint.Strang(geomint.Gonzalez(), geomint.DampedGonzalez()), {"GonzalezKind", "Damped"}),
+    # damping scales eps, which the Hamiltonian flow does not have
+    (geomint.Strang(geomint.DampedGonzalez(), geomint.Gonzalez()), {"GonzalezKind"}),
+]
+
+
+@pytest.mark.nojit
+@pytest.mark.parametrize("method, expected", USES, ids=[repr(m) for m, _ in USES])
+def test_a_program_lists_every_leaf_it_can_run(method, expected):
+    """``ComposedStep.uses`` decides what the composition engine compiles: a leaf missing from it would not
+    run (a row of the program lowered with another leaf's code), so every leaf a row can run is listed."""
+    body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
+    assert {type(marker).__name__ for marker in method.lower(body).uses} == expected

@@ -247,14 +247,14 @@ _BY_MARKER = {GonzalezKind: _gonzalez_dg, ItohAbeKind: _itoh_abe_dg, Symmetrized
 #: each discrete gradient compiled to be inlined (into its own discrete field, below) ...
 _INLINED = {marker: njit(inline="always")(dg) for marker, dg in _BY_MARKER.items()}
 _gonzalez_inlined = _INLINED[GonzalezKind]
-#: ... and as a call (the less usual stages of composed programs)
+#: ... and as a call (programs mixing discrete-gradient kinds: ``composition.stage_kind``)
 _itoh_abe_called, _symmetrized_called, _avf_called = (
     inner(dg) for dg in (_itoh_abe_dg, _symmetrized_dg, _avf_dg))
 
 
 @njit(inline="always")
 def _by_code(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
-    """The discrete gradient chosen at run time by the integer code ``kind`` (the stages of a composed program):
+    """The discrete gradient chosen at run time by the integer code ``kind`` (a program mixing kinds):
     inlined into the discrete field of codes, with Gonzalez's gradient (the usual stage, and a short one) inlined
     too and the others called."""
     if kind == ITOH_ABE:
@@ -367,7 +367,7 @@ def _discrete_field_with(discrete_gradient):
 
 
 #: the discrete field of each kind of discrete gradient, the gradient inlined (a call carrying the user's functions
-#: costs more than the quotient), and of integer codes (composed programs: chosen at run time)
+#: costs more than the quotient), and of integer codes (programs mixing kinds: chosen at run time)
 _FIELDS = {marker: inner(_discrete_field_with(dg)) for marker, dg in _INLINED.items()}
 _FIELD_BY_CODE = inner(_discrete_field_with(_by_code))
 

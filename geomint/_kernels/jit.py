@@ -5,9 +5,11 @@ Entry points, the kernels Python calls (``driver.integrate``,
 on disk (``geomint._cache``), and with numpy's floating-point semantics (a
 division by zero gives inf or NaN, which the steps report as non-finite,
 instead of raising).  Every other kernel is only ever called from compiled
-code and is decorated with ``inner``: the same semantics, compiled into its
-callers (and cached with them), without the Python and C wrappers numba
-otherwise builds for each function.  Those wrappers are never called;
+code, and is compiled as a function of its own, is decorated with ``inner``:
+the same semantics, compiled into its callers (and cached with them),
+without the Python and C wrappers numba otherwise builds for each function.
+(The few kernels numba inlines, ``inline="always"``, are never compiled on
+their own and need neither.)  Those wrappers are never called;
 without them a Gonzalez run compiles in 12.5 s instead of 15.4 s (empty
 cache, this machine).
 """

@@ -90,10 +90,11 @@ def rk4_step(model, eps, hamiltonian, buf, x, comp, h):
 def damped_eps(damped, model, eps, buf, x, h):
     """``(eps', field evaluations)``: ``eps`` times ``damping_factor`` where ``damped``, else ``eps``.
 
-    ``damped`` is a flag (a stage of a composition, decided at run time) or a
-    ``layout.Damped``/``Undamped`` marker (a standalone step), whose type
-    decides when the step is compiled: an undamped run does not compile the
-    damping factor.
+    ``damped`` is a ``layout.Damped``/``Undamped`` marker (a standalone step,
+    or a stage of a program without damped stages: ``composition.stage_damped``),
+    whose type decides when the step is compiled, so an undamped run does not
+    compile the damping factor; or a flag read at run time (a stage of a program
+    with damped stages).
     """
     on = damped.on if isinstance(damped, (Damped, Undamped)) else bool(damped)
     return (eps * damping_factor(model, eps, buf, x, h), 4) if on else (eps, 0)

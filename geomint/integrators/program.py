@@ -44,13 +44,15 @@ class Program:
         coeffs = [*self.gammas, *(fraction for _, _, fraction in self.stages)]
         rows = []
         uses = {}
-        for k, (method, flow) in enumerate([(method, flow) for method, flow, _ in self.stages] + [(Gonzalez(), "full")]):
+        stages = [(method, flow) for method, flow, _ in self.stages] + [(Gonzalez(), "full")]
+        for k, (method, flow) in enumerate(stages):
             leaf, kind, max_iter, damped, compensated, data = method.stage(system)
             rows += [leaf, FLOWS[flow], kind, max_iter, int(damped), int(compensated), len(coeffs), len(data)]
             coeffs += [float(c) for c in data]
             if k < len(self.stages) or self.monotone:  # the safeguard's fallback runs only in monotone programs
                 key = leaf, kind if leaf == layout.LEAF_DISCRETE_GRADIENT else 0
-                uses[key] = uses.get(key, False) or bool(damped)
+                # damping scales eps, which a stage on the Hamiltonian flow does not have
+                uses[key] = uses.get(key, False) or (bool(damped) and flow != "hamiltonian")
         iopts = np.array(header + rows, dtype=np.int64)
         slots = len(self.gammas) * len(self.stages) + 1
         return layout.ComposedStep(np.array(coeffs, dtype=np.float64), iopts, slots, _markers(uses))
