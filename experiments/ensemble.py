@@ -11,12 +11,13 @@ repeats, medians; the loop over ``solve`` runs once (it is the slow baseline).
 The floor is ``experiments.floors.midpoint_batch_inlined`` (implicit midpoint,
 which is Gonzalez's step for this quadratic H, field inlined, prange).
 
-One more row says where the gap to the floor is: geomint's own step loop
-(``driver.integrate``, one thread) given the user functions as numba
-dispatchers instead of first-class function values, so that LLVM inlines them
-as the floor's field is inlined.  That needs a compilation per system (numba
-cannot cache it), which is why the library does not do it; what remains
-between that row and the floor is the Gonzalez step's own work.
+Two more rows say where the gap to the floor is: geomint's own step loop
+(``driver.integrate``, one thread, called from a Python loop over the starts)
+given the model as the library gives it (first-class function values) and
+given the user functions as numba dispatchers instead, so that LLVM inlines
+them as the floor's field is inlined.  That needs a compilation per system
+(numba cannot cache it), which is why the library does not do it; what
+remains between that row and the floor is the Gonzalez step's own work.
 """
 
 import argparse
@@ -53,8 +54,10 @@ def speed(starts, steps, repeats):
             lambda: geomint.solve_ensemble(body, X0, span, h, save_every=None).x_final,
         "geomint solve_ensemble(Gonzalez), 1 thread":
             lambda: geomint.solve_ensemble(body, X0, span, h, save_every=None, threads=1).x_final,
-        "geomint's Gonzalez step loop, user functions inlined (a per-system compile), 1 thread":
-            lambda: _inlined_step_loop(body, X0, h, steps),
+        "geomint's Gonzalez step loop from a Python loop, first-class functions (as the library), 1 thread":
+            lambda: _step_loop(body, X0, h, steps, inlined=False),
+        "geomint's Gonzalez step loop from a Python loop, user functions inlined (a per-system compile), 1 thread":
+            lambda: _step_loop(body, X0, h, steps, inlined=True),
         f"geomint solve_ensemble(Projected(DormandPrince54())), adaptive rtol = 1e-6, atol = 1e-8, {cores} threads":
             lambda: geomint.solve_ensemble(body, X0, span, method=geomint.Projected(geomint.DormandPrince54()),
                                            rtol=1e-6, atol=1e-8).x_final,
@@ -77,13 +80,14 @@ def speed(starts, steps, repeats):
     return medians, identical, inlined_identical, cores
 
 
-def _inlined_step_loop(body, X0, h, steps):
+def _step_loop(body, X0, h, steps, inlined):
     """Final states of ``driver.integrate`` (Gonzalez, fixed steps) from each row of ``X0``, one thread, with the
-    model's functions handed over as dispatchers (inlined by LLVM, compiled for this system only)."""
+    model as the library hands it over (first-class functions) or, ``inlined``, with its functions handed over
+    as dispatchers (inlined by LLVM, compiled for this system only)."""
     from geomint._kernels import driver, layout
 
     f, fc = body.functions, body.model
-    model = layout.Model(f.H, f.grad_H, f.S, f.grad_S, f.poisson, fc.params, fc.origin)
+    model = layout.Model(f.H, f.grad_H, f.S, f.grad_S, f.poisson, fc.params, fc.origin) if inlined else fc
     method = geomint.Gonzalez().lower(body)
     grid = driver.Grid(0.0, h, steps, steps * 0.01 - (steps - 1) * h, steps + 1)  # solve_ensemble's grid
     finals = np.empty_like(X0)
@@ -147,7 +151,10 @@ def main(argv=None):
     args = parser.parse_args(argv)
     medians, identical, inlined_identical, cores = speed(args.starts, args.steps, args.repeats)
     floor = medians[f"floor: prange implicit midpoint, field inlined, {cores} threads"]
+    floor_one = medians["floor: the same, 1 thread"]
     one = medians["geomint solve_ensemble(Gonzalez), 1 thread"]
+    loop_first_class = medians[next(name for name in medians if "first-class functions (as" in name)]
+    loop_inlined = medians[next(name for name in medians if "inlined (a" in name)]
     lines = [
         "# Ensemble speed",
         "",
@@ -165,8 +172,8 @@ def main(argv=None):
         f"{medians[f'geomint solve_ensemble(Gonzalez), {cores} threads'] / one:.2f}.",
         "",
         "With the user functions inlined (the row compiled for this system only; final states identical: "
-        f"{inlined_identical}) the step loop is {one / medians[next(n for n in medians if 'inlined (a' in n)]:.2f}x "
-        "faster on one thread than through first-class functions. What remains between it and the floor is the "
+        f"{inlined_identical}) the step loop is {loop_first_class / loop_inlined:.2f}x faster on one thread than the same "
+        f"loop through first-class functions; it is {loop_inlined / floor_one:.1f}x the one-thread floor. What remains between it and the floor is the "
         "Gonzalez step's own work, which the floor's fixed-point midpoint does not do: a simplified Newton "
         "iteration with a 3x3 solve, H and S at every iterate so that only exact iterates are accepted, the "
         "discrete-gradient switching rules and compensated summation.",
