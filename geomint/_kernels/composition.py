@@ -123,7 +123,7 @@ def _leaf_step_typed(uses, coeffs, iopts, row, model, eps, hamiltonian, buf, x, 
     return _leaf_step_for({marker.instance_class for marker in uses.types})
 
 
-@njit(inline="always")
+@inner
 def _flowed(x, comp, x_flow, evaluations):
     """The step of an exact-flow leaf that moved ``x`` to ``x_flow``."""
     x_new, comp_new = advance(x, comp, sub(x_flow, x))
