@@ -209,7 +209,7 @@ def estimated_step(method, control, model, eps, hamiltonian, buf, x, comp, ancho
     return _ESTIMATED[type(method)](method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work)
 
 
-@overload(estimated_step)
+@overload(estimated_step, inline="always")
 def _estimated_step_typed(method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work):
     impl = _ESTIMATED[method.instance_class]
     return lambda method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work: impl(

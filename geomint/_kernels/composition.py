@@ -53,7 +53,7 @@ from numba.extending import overload
 from .._cache import CACHE
 from .discrete_gradient import origin_terms, term_scale
 from .exact_flows import rigid_body_flow, rotation, rotor_splitting
-from .jit import inner
+from .jit import hot, inner
 from .layout import (
     GRADIENT, HAMILTONIAN, HEADER, KIND_MARKERS, LEAF_DISCRETE_GRADIENT, LEAF_RIGID_BODY_FLOW, LEAF_RK4,
     LEAF_ROTATION, LEAF_ROTOR_SPLITTING, NEWTON_FAILED, NO_PROJECTION, NON_FINITE, OK, P_ANCHOR, P_GAMMAS,
@@ -159,7 +159,7 @@ def _stage_damped_typed(uses, flag):
     return lambda uses, flag: Undamped(False)
 
 
-@inner
+@hot
 def _composition(uses, coeffs, iopts, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, rise_ulps, work):
     """``base(gamma_G h) o ... o base(gamma_1 h)`` from ``x`` with ``H_x = H(x)``.
 
@@ -251,7 +251,7 @@ def pull_back(model, buf, y, H_y, S_y, anchor, S_limit, max_iter):
     return y, H_y, S_y, it + 4
 
 
-@inner
+@hot
 def composed_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work, rise_ulps):
     """One full step from ``x`` (``H_anchor``: H(x0)); returns ``(StepResult, sub-steps raising S,
     safeguard fired)``."""

@@ -380,7 +380,7 @@ def discrete_field(kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, 
     return field(kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales)
 
 
-@overload(discrete_field)
+@overload(discrete_field, inline="always")
 def _discrete_field_typed(kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales):
     field = _FIELD_BY_CODE if isinstance(kind, types.Integer) else _FIELDS[kind.instance_class]
     return lambda kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales: field(

@@ -16,7 +16,7 @@ from numba.extending import overload
 
 from .discrete_gradient import discrete_field, origin_terms, term_scale
 from .field import field, field_inlined, non_finite_culprit
-from .jit import inner
+from .jit import hot, inner
 from .layout import (
     NEWTON_FAILED, NON_FINITE, OK, UNKNOWN, W_DX1, W_DX2, W_DX3, W_H, W_HISTORY, W_JACOBIAN, W_JACOBIAN_VALID,
     Damped, StepResult, Undamped,
@@ -76,7 +76,7 @@ rk4_increment = inner(_rk4_increment_of(field))
 _rk4_increment_inlined = njit(inline="always")(_rk4_increment_of(field_inlined))
 
 
-@inner
+@hot
 def rk4_step(model, eps, hamiltonian, buf, x, comp, h):
     """Classical Runge-Kutta, order 4: the generic, structure-blind baseline.  Four field evaluations,
     no H or S."""
@@ -386,7 +386,7 @@ def _attempts(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x
     return status, x_new, comp_new, H_new, S_new, iterations, evaluations, rate, culprit, attempt
 
 
-@inner
+@hot
 def discrete_gradient_step(kind, max_iter, damped, compensated, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x,
                            h, work):
     """One metriplectic discrete-gradient step ``x' = x + h F(x, x')`` (``discrete_field``), solved to round-off.
