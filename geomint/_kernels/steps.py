@@ -21,7 +21,7 @@ from .layout import (
     NEWTON_FAILED, NON_FINITE, OK, UNKNOWN, W_DX1, W_DX2, W_DX3, W_H, W_HISTORY, W_JACOBIAN, W_JACOBIAN_VALID,
     Damped, StepResult, Undamped,
 )
-from .vec3 import ZERO, abs_dot, add, axpy, is_finite, load, norm_inf, scale, solve, sub
+from .vec3 import ZERO, abs_dot, add, axpy, is_finite, load, norm_inf, same, scale, solve, sub
 
 EPS = np.finfo(np.float64).eps
 SQRT_EPS = np.sqrt(EPS)
@@ -235,7 +235,8 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
       then the correction is applied (never the start as it is: an
       extrapolated start's error, below the threshold but of one sign, would
       add up) and the corrected iterate is accepted if exact (2 function
-      values instead of a further discrete field).  A converged root far from
+      values instead of a further discrete field; none where it rounds to
+      the same state, the correction then living in the compensation).  A converged root far from
       keeping H and S (``GUARD`` ulps, beyond what the remaining correction
       moves them: a component of dx far smaller than |dx| is resolved only
       as the iteration goes on) is a spurious root, reached from a step far
@@ -297,9 +298,12 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
             first_theta = theta
         if converged or (theta < 0.5 and theta / (1.0 - theta) * error <= resolution):
             x_next, comp_next = advance(x, comp, sub(dx, correction))
-            load(buf, x_next)
-            H_next, S_next = model.H(buf, model.params), model.S(buf, model.params)
-            evaluations += 1
+            if same(x_next, x_new):  # a correction below the state's ulps (a state at rest): H, S just evaluated
+                H_next, S_next = H_new, S_new
+            else:
+                load(buf, x_next)
+                H_next, S_next = model.H(buf, model.params), model.S(buf, model.params)
+                evaluations += 1
             if _kept(H_x, H_next, terms_h, ACCEPT_ULPS, 0.0) and _kept(S_x, S_next, terms_s, s_ulps, s_direction):
                 return OK, x_next, comp_next, H_next, S_next, iteration, evaluations, max(theta, first_theta), UNKNOWN
         stalled = converged or error >= 0.5 * best
