@@ -55,9 +55,9 @@ def speed(starts, steps, repeats):
         "geomint solve_ensemble(Gonzalez), 1 thread":
             lambda: geomint.solve_ensemble(body, X0, span, h, save_every=None, threads=1).x_final,
         "geomint's Gonzalez step loop from a Python loop, first-class functions (as the library), 1 thread":
-            lambda: _step_loop(body, X0, h, steps, inlined=False),
+            lambda: _step_loop(body, X0, span, h, steps, inlined=False),
         "geomint's Gonzalez step loop from a Python loop, user functions inlined (a per-system compile), 1 thread":
-            lambda: _step_loop(body, X0, h, steps, inlined=True),
+            lambda: _step_loop(body, X0, span, h, steps, inlined=True),
         f"geomint solve_ensemble(Projected(DormandPrince54())), adaptive rtol = 1e-6, atol = 1e-8, {cores} threads":
             lambda: geomint.solve_ensemble(body, X0, span, method=geomint.Projected(geomint.DormandPrince54()),
                                            rtol=1e-6, atol=1e-8).x_final,
@@ -80,7 +80,7 @@ def speed(starts, steps, repeats):
     return medians, identical, inlined_identical, cores
 
 
-def _step_loop(body, X0, h, steps, inlined):
+def _step_loop(body, X0, span, h, steps, inlined):
     """Final states of ``driver.integrate`` (Gonzalez, fixed steps) from each row of ``X0``, one thread, with the
     model as the library hands it over (first-class functions) or, ``inlined``, with its functions handed over
     as dispatchers (inlined by LLVM, compiled for this system only)."""
@@ -89,7 +89,8 @@ def _step_loop(body, X0, h, steps, inlined):
     f, fc = body.functions, body.model
     model = layout.Model(f.H, f.grad_H, f.S, f.grad_S, f.poisson, fc.params, fc.origin) if inlined else fc
     method = geomint.Gonzalez().lower(body)
-    grid = driver.Grid(0.0, h, steps, steps * 0.01 - (steps - 1) * h, steps + 1)  # solve_ensemble's grid
+    t0, t_end = span
+    grid = driver.Grid(t0, h, steps, (t_end - t0) - (steps - 1) * h, steps + 1)  # solve's grid over span
     finals = np.empty_like(X0)
     for i, x0 in enumerate(X0):
         state, work = np.zeros(layout.N_STATE), np.zeros(layout.WORK)

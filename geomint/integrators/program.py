@@ -43,26 +43,27 @@ class Program:
         header = [len(self.gammas), len(self.stages), int(self.monotone), self.projection, self.max_iter, int(anchor)]
         coeffs = [*self.gammas, *(fraction for _, _, fraction in self.stages)]
         rows = []
-        uses = {}
+        leaves, damped_any = set(), False
         stages = [(method, flow) for method, flow, _ in self.stages] + [(Gonzalez(), "full")]
         for k, (method, flow) in enumerate(stages):
             leaf, kind, max_iter, damped, compensated, data = method.stage(system)
             rows += [leaf, FLOWS[flow], kind, max_iter, int(damped), int(compensated), len(coeffs), len(data)]
             coeffs += [float(c) for c in data]
             if k < len(self.stages) or self.monotone:  # the safeguard's fallback runs only in monotone programs
-                key = leaf, kind if leaf == layout.LEAF_DISCRETE_GRADIENT else 0
+                leaves.add((leaf, kind if leaf == layout.LEAF_DISCRETE_GRADIENT else 0))
                 # damping scales eps, which a stage on the Hamiltonian flow does not have
-                uses[key] = uses.get(key, False) or (bool(damped) and flow != "hamiltonian")
+                damped_any = damped_any or (bool(damped) and flow != "hamiltonian")
         iopts = np.array(header + rows, dtype=np.int64)
         slots = len(self.gammas) * len(self.stages) + 1
-        return layout.ComposedStep(np.array(coeffs, dtype=np.float64), iopts, slots, _markers(uses))
+        return layout.ComposedStep(np.array(coeffs, dtype=np.float64), iopts, slots, _markers(leaves, damped_any))
 
 
-def _markers(uses):
-    """``ComposedStep.uses`` from ``{(leaf code, kind code): damped}``, in a fixed order (one compiled type per set)."""
+def _markers(leaves, damped):
+    """``ComposedStep.uses`` from the ``(leaf code, kind code)`` pairs a program can run, in a fixed order (one
+    compiled type per set), and ``Damped(True)`` last where a stage is ``damped``."""
     markers = tuple(layout.KIND_MARKERS[kind](kind) if leaf == layout.LEAF_DISCRETE_GRADIENT else
-                    layout.LEAF_MARKERS[leaf](leaf) for leaf, kind in sorted(uses))
-    return markers + ((layout.Damped(True),) if any(uses.values()) else ())
+                    layout.LEAF_MARKERS[leaf](leaf) for leaf, kind in sorted(leaves))
+    return markers + ((layout.Damped(True),) if damped else ())
 
 
 class Programmed:
