@@ -1,22 +1,37 @@
-"""Where compiled code is cached on disk, and what happens when no folder is writable.
+"""Where compiled code is cached on disk: a user cache folder, never the installed package.
 
-geomint's kernels are compiled with ``njit(cache=CACHE)``.  numba caches next
-to the source (``__pycache__``), else in the user's cache folder; a read-only
-install with a read-only home (containers, clusters) has neither, and numba
-would refuse to even define a cached function ("no locator available").  So,
-before any kernel is defined: if neither is writable, numba's cache goes to a
-folder in the temporary directory (``numba.config.CACHE_DIR``); if that is not
-writable either, ``CACHE`` is False, kernels are compiled anew in every
-process, and one warning says so.  A ``NUMBA_CACHE_DIR`` the user set is left
-alone.
+geomint's kernels are compiled with ``njit(cache=CACHE)``.  Left to itself,
+numba writes its cache files (``*.nbi``, ``*.nbc``) into ``__pycache__`` beside
+the source, which for a non-editable install is ``site-packages/geomint``:
+pip does not list those files, so uninstalling leaves a bare
+``site-packages/geomint/`` behind that shadows a later editable install.  So
+numba is given a locator of geomint's own (registered before any kernel is
+defined) that puts the cache of every source file of the package under
+
+    <cache root>/numba/<digest of the package folder>/<sub-package>
+
+The cache root is the first writable folder of
+
+1. ``$GEOMINT_CACHE_DIR``;
+2. ``$NUMBA_CACHE_DIR`` (numba's own setting, honoured when geomint's is unset);
+3. ``$XDG_CACHE_HOME/geomint``, default ``~/.cache/geomint``;
+4. ``<temporary folder>/geomint-<uid>``.
+
+Generated modules of systems written as formulas live under the same root
+(``<root>/expressions``).  The digest of the package folder keeps two
+checkouts or installs apart.  With no writable folder at all, ``CACHE`` is
+False, kernels are compiled anew in every process, and one warning says so.
 """
 
+import hashlib
 import os
 import tempfile
 import warnings
 from pathlib import Path
 
-import numba
+from numba.core import caching
+
+PACKAGE = Path(__file__).resolve().parent
 
 
 def writable(folder):
@@ -34,25 +49,58 @@ def user_folder(name):
     return Path(tempfile.gettempdir()) / f"{name}-{os.getuid() if hasattr(os, 'getuid') else 'user'}"
 
 
-def _numba_cache():
-    if numba.config.CACHE_DIR:
-        return True
-    here = Path(__file__).parent
-    if all(writable(folder / "__pycache__") for folder in (here, here / "_kernels", here / "systems")):
-        return True
-    from numba.misc.appdirs import AppDirs
-
-    if writable(AppDirs(appname="numba", appauthor=False).user_cache_dir):
-        return True
-    fallback = user_folder("geomint-numba")
-    if writable(fallback):
-        numba.config.CACHE_DIR = str(fallback)
-        return True
-    warnings.warn(f"geomint: no writable folder for numba's cache (the install, the user cache, {fallback}); "
-                  "kernels are compiled in every process. Set NUMBA_CACHE_DIR to a writable folder.",
-                  RuntimeWarning, stacklevel=2)
-    return False
+def candidates():
+    """The folders that may hold geomint's cache, in order of preference (see the module docstring)."""
+    folders = [Path(os.environ[key]) for key in ("GEOMINT_CACHE_DIR", "NUMBA_CACHE_DIR") if os.environ.get(key)]
+    user_cache = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return [*folders, Path(user_cache) / "geomint", user_folder("geomint")]
 
 
+def cache_root():
+    """The first writable folder of :func:`candidates`, or None when none is writable."""
+    return next((folder for folder in candidates() if writable(folder)), None)
+
+
+def kernel_folder(source_folder, root=None):
+    """Where numba caches the compiled code of the package's sources in ``source_folder``."""
+    root = cache_root() if root is None else root
+    digest = hashlib.sha1(str(PACKAGE).encode()).hexdigest()[:12]
+    relative = Path(source_folder).resolve().relative_to(PACKAGE)
+    return Path(root) / "numba" / f"geomint-{digest}" / relative
+
+
+class PackageCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheLocator):
+    """numba's cache locator for the sources of this package: the user cache folder, not ``__pycache__``."""
+
+    def __init__(self, py_func, py_file):
+        self._py_file = py_file
+        self._lineno = py_func.__code__.co_firstlineno
+        self._cache_path = str(kernel_folder(Path(py_file).parent, ROOT))
+
+    def get_cache_path(self):
+        return self._cache_path
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        if ROOT is None or not Path(py_file).resolve().is_relative_to(PACKAGE):
+            return None
+        return super().from_function(py_func, py_file)
+
+
+def _register():
+    if ROOT is None:
+        warnings.warn(f"geomint: no writable folder for numba's cache ({', '.join(map(str, candidates()))}); "
+                      "kernels are compiled in every process. Set GEOMINT_CACHE_DIR to a writable folder.",
+                      RuntimeWarning, stacklevel=3)
+        return False
+    implementation = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # renamed in numba 0.61
+    locators = implementation._locator_classes
+    if PackageCacheLocator not in locators:
+        locators.insert(0, PackageCacheLocator)
+    return True
+
+
+#: the folder every cache of geomint lives under (None: nothing writable)
+ROOT = cache_root()
 #: ``cache=`` for every ``njit`` of the package
-CACHE = _numba_cache()
+CACHE = _register()

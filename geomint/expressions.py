@@ -20,8 +20,8 @@ Text becomes a system in four steps, each refusing what it cannot vouch for:
    returning floats and 3-tuples (or a 3x3 array for ``P``), parameters read as
    ``p[i]``, written to ``<cache>/geomint_expr_<hash>.py`` and decorated with
    ``numba.njit(cache=True)``, so a new process loads the machine code from disk.
-   ``<cache>`` is ``$GEOMINT_CACHE_DIR``, else ``$XDG_CACHE_HOME/geomint`` (default
-   ``~/.cache/geomint``), else a folder in the temporary directory.
+   ``<cache>`` is ``<cache root>/expressions``, the cache root of ``geomint._cache``
+   (``$GEOMINT_CACHE_DIR``, else ``$XDG_CACHE_HOME/geomint``, default ``~/.cache/geomint``).
 
 ``MetriplecticSystem.from_expressions`` is the public entry; it hands the
 generated functions to the one public constructor.
@@ -43,11 +43,11 @@ import keyword
 import math
 import os
 import sys
-import tempfile
-from pathlib import Path
 
 import sympy
 from sympy.printing.pycode import PythonCodePrinter
+
+from . import _cache
 
 #: function name in a formula -> (sympy function, how the generated code computes it)
 FUNCTIONS = {
@@ -317,25 +317,12 @@ def source(H, grad_H, S, grad_S, poisson, poisson_form, parameters):
 
 
 def cache_directory():
-    """Where generated modules live: ``$GEOMINT_CACHE_DIR``, the user cache, or a temporary folder.
-
-    The first of these that can be created and written is used.
-    """
-    candidates = []
-    if os.environ.get("GEOMINT_CACHE_DIR"):
-        candidates.append(Path(os.environ["GEOMINT_CACHE_DIR"]))
-    user_cache = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    candidates += [Path(user_cache) / "geomint" / "expressions",
-                   Path(tempfile.gettempdir()) / f"geomint-{os.getuid() if hasattr(os, 'getuid') else 'user'}"]
-    for folder in candidates:
-        try:
-            folder.mkdir(parents=True, exist_ok=True)
-        except OSError:
-            continue
-        if os.access(folder, os.W_OK):
-            return folder
-    raise OSError(f"no writable folder for generated code among {[str(c) for c in candidates]}; "
-                  "set GEOMINT_CACHE_DIR to a writable folder.")
+    """Where generated modules live: ``<cache root>/expressions`` (``geomint._cache``)."""
+    root = _cache.cache_root()
+    if root is None or not _cache.writable(root / "expressions"):
+        raise OSError(f"no writable folder for generated code among {[str(c) for c in _cache.candidates()]}; "
+                      "set GEOMINT_CACHE_DIR to a writable folder.")
+    return root / "expressions"
 
 
 def compile_functions(text):

@@ -1,5 +1,7 @@
 import os
+import signal
 
+import pytest
 from hypothesis import HealthCheck, settings
 
 settings.register_profile(
@@ -11,3 +13,12 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci" if os.environ.ge
 
 def pytest_addoption(parser):
     parser.addoption("--zoo-starts", default=None, help="random starts per zoo system and method (default 200)")
+
+
+@pytest.fixture
+def sigint_raises():
+    """SIGINT answered as Python answers it by default, for one test, even where the runner ignores it (a job
+    started in the background by a non-interactive shell ignores SIGINT, and geomint then leaves it ignored)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)

@@ -54,6 +54,7 @@ for method in ("gonzalez", geomint.Yoshida4(geomint.Gonzalez())):
 """
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(numba.config.DISABLE_JIT, reason="compiled code only")
 def test_a_run_compiles_only_the_steps_its_method_uses(tmp_path):
     """Counted on a cold compile (an empty numba cache: with a warm one nothing compiles and nothing could be
@@ -61,7 +62,7 @@ def test_a_run_compiles_only_the_steps_its_method_uses(tmp_path):
     Yoshida4(Gonzalez()) run then adds the composition but still neither the discrete field of integer codes
     (the other discrete gradients), nor RK4, nor the exact flows."""
     out = subprocess.run([sys.executable, "-c", COMPILED], capture_output=True, text=True, timeout=900,
-                         env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)})
+                         env={**os.environ, "GEOMINT_CACHE_DIR": str(tmp_path)})
     assert out.returncode == 0, out.stderr
     gonzalez, yoshida = ([int(n) for n in line.split()] for line in out.stdout.splitlines())
     assert gonzalez == [0, 0, 1, 0, 0, 0, 0], out.stdout

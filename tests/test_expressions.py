@@ -150,7 +150,7 @@ def test_a_second_process_loads_the_generated_code_from_the_disk_cache(tmp_path)
     (first_hits, first_misses), (hits, misses) = (map(int, run.stdout.split()) for run in runs)
     assert (first_hits, first_misses) == (0, 5)
     assert (hits, misses) == (5, 0)
-    assert len(list(tmp_path.glob("geomint_expr_*.py"))) == 1
+    assert len(list(tmp_path.glob("expressions/geomint_expr_*.py"))) == 1
 
 
 def test_the_cache_falls_back_when_the_configured_folder_is_not_writable(tmp_path, monkeypatch):

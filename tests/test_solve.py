@@ -99,7 +99,7 @@ def test_chunk_boundaries_do_not_change_a_single_bit(monkeypatch, method):
     assert (chunked.n_newton, chunked.nfev) == (whole.n_newton, whole.nfev)
 
 
-def test_ctrl_c_returns_the_states_computed_so_far():
+def test_ctrl_c_returns_the_states_computed_so_far(sigint_raises):
     """SIGINT in the middle of a long solve: answered between chunks, every state up to there kept."""
     import os
     import signal

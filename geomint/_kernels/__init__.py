@@ -15,6 +15,8 @@ from pathlib import Path
 
 from numba.core.errors import NumbaExperimentalFeatureWarning
 
+from .._cache import ROOT, kernel_folder
+
 warnings.filterwarnings("ignore", message=".*First-class function type feature is experimental",
                         category=NumbaExperimentalFeatureWarning)
 
@@ -28,17 +30,19 @@ def _drop_stale_cache():
     changes.
     """
     folder = Path(__file__).parent
+    if ROOT is None:
+        return
     digest = hashlib.sha256(b"".join(p.read_bytes() for p in sorted(folder.glob("*.py")))).hexdigest()
-    cache = folder / "__pycache__"
+    cache = kernel_folder(folder, ROOT)
     stamp = cache / "geomint-kernels.sha256"
     try:
         if stamp.exists() and stamp.read_text() == digest:
             return
-        cache.mkdir(exist_ok=True)
+        cache.mkdir(parents=True, exist_ok=True)
         for path in (*cache.glob("*.nbi"), *cache.glob("*.nbc")):
             path.unlink()
         stamp.write_text(digest)
-    except OSError:  # read-only install: numba falls back to its own cache folder
+    except OSError:  # a cache folder that cannot be cleaned is one numba cannot write either
         pass
 
 
