@@ -55,7 +55,7 @@ def test_docstring_examples_run(name):
 
 
 RUNNABLE_PAGES = ["getting-started.md", "coming-from-scipy.md", "guides/own-system.md", "guides/analysis.md",
-                  "guides/ensembles.md"]
+                  "guides/ensembles.md", "../README.md"]
 
 
 @pytest.mark.parametrize("page", RUNNABLE_PAGES)
