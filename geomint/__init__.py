@@ -9,13 +9,14 @@ from ._user_errors import UserFunctionError
 from .ensemble import Ensemble, solve_ensemble, sweep
 from .io import load
 from .scene import Scene, SceneError, SceneResult, run_scene
-from .solution import Solution
+from .solution import AccuracyWarning, Solution
 from .solve import solve
 from .system import MetriplecticSystem
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "AccuracyWarning",
     "AVF", "RK4", "BogackiShampine32", "Composition", "DampedGonzalez", "DormandPrince54", "DormandPrince853",
     "Ensemble", "Gonzalez", "Integrator", "ItohAbe", "KahanLi6",
     "KahanLi8", "Lie", "MetriplecticSystem", "OscillatorRotation", "Projected", "RigidBodyFlow", "RotorSplitting",

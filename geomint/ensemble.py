@@ -21,8 +21,9 @@ mid-run has its chunks run again by Dask.
 ``sweep`` runs a grid of eps values and parameter sets over the same starts.
 """
 
+import warnings
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numba
 import numpy as np
@@ -31,11 +32,11 @@ from . import _user_errors, _validate
 from ._kernels import batch as _batch
 from ._kernels import driver as _driver
 from ._kernels import layout as _layout
-from .integrators import resolve
-from .solution import Solution
+from .solution import AccuracyWarning, Solution
 from .solve import (
-    _check_memory, _check_save_every, _check_span, _check_t_eval, _interrupts, _message, _raised_message,
-    check_direction, check_step_or_control, marching, step_count,
+    RTOL, _check_memory, _check_save_every, _check_span, _check_t_eval, _interrupts, _message, _raised_message,
+    check_direction, check_step_or_control, choose_method, marching, step_caveat, step_count, step_ratios,
+    tolerance_caveat,
 )
 from .system import MetriplecticSystem
 
@@ -45,6 +46,9 @@ CHUNK = 256
 INVALID_START = -5
 #: status of a trajectory not run because Ctrl-C stopped the ensemble first
 NOT_RUN = 3
+#: fixed steps: the step's ratio to the dynamics (``solve.step_ratios``) is checked for at most this many distinct
+#: (eps, params) of a sweep (the first ones); the trajectories of the others get NaN
+RATIO_GROUPS = 256
 
 
 @dataclass(frozen=True)
@@ -75,6 +79,12 @@ class Ensemble:
     params : (n, p) array
         Parameters of each trajectory.
     method : Integrator
+    caveats : tuple of tuples of str
+        Per trajectory, as ``Solution.caveats`` (each sentence also ends its
+        message; one ``AccuracyWarning`` for the ensemble).  Empty when none.
+    step_ratio : (n,) array or None
+        Fixed steps: ``|h|`` times each trajectory's local rate, as
+        ``Solution.step_ratio`` (NaN where unknown).  None for adaptive steps.
     """
 
     t: np.ndarray
@@ -92,6 +102,8 @@ class Ensemble:
     eps: np.ndarray
     params: np.ndarray
     method: object
+    caveats: tuple = ()
+    step_ratio: np.ndarray | None = None
 
     def __len__(self):
         return len(self.status)
@@ -114,7 +126,8 @@ class Ensemble:
                         S=self.S[i, :n].copy(), success=status == 0, status=status, message=self.messages[i],
                         failed_step=int(self.failed_step[i]) or None, n_steps=int(self.n_steps[i]),
                         n_newton=int(self.n_newton[i]), nfev=int(self.nfev[i]), method=self.method,
-                        n_rejected=int(self.n_rejected[i]))
+                        n_rejected=int(self.n_rejected[i]), caveats=self.caveats[i] if self.caveats else (),
+                        step_ratio=None if self.step_ratio is None else float(self.step_ratio[i]))
 
     def to_xarray(self, param_names=None):
         """An ``xarray.Dataset`` (optional dependency: ``pip install geomint[xarray]``).
@@ -138,7 +151,7 @@ class Ensemble:
                            "S": (("trajectory", "time"), self.S)}, coords=coords)
 
 
-def solve_ensemble(system, X0, t_span, h=None, method="gonzalez", *, rtol=None, atol=None, first_step=None,
+def solve_ensemble(system, X0, t_span, h=None, method=None, *, rtol=None, atol=None, first_step=None,
                    max_step=None, t_eval=None, params=None, eps=None, save_every=1, progress=None, backend="local",
                    client=None, chunk=CHUNK, threads=None):
     """Integrate every start ``X0[i]`` in one compiled batch kernel over all cores.
@@ -151,7 +164,10 @@ def solve_ensemble(system, X0, t_span, h=None, method="gonzalez", *, rtol=None, 
         refused for that trajectory only (``status`` -5); the others run.
     t_span, h, method
         As in ``geomint.solve``, shared by all trajectories; ``h=None`` (the
-        default) takes adaptive steps, each trajectory its own.
+        default) takes adaptive steps, each trajectory its own; ``method=None``
+        chooses as ``solve`` does.  Fixed steps far beyond the dynamics, and a
+        method not expected to meet ``rtol``, are flagged as in ``solve``
+        (``caveats``, ``step_ratio``, the messages, one ``AccuracyWarning``).
     rtol, atol, first_step, max_step
         Adaptive steps only, as in ``geomint.solve`` (the first step, when not
         given, is chosen per trajectory by the same rule).
@@ -200,7 +216,7 @@ def solve_ensemble(system, X0, t_span, h=None, method="gonzalez", *, rtol=None, 
     n = len(X0)
     params = _per_trajectory_params(system, params, n)
     eps = _per_trajectory_eps(system, eps, n)
-    integrator = resolve(method)
+    integrator = choose_method(method, h, rtol, t_span)
     if not integrator.whole_field and np.any(eps != 0.0):
         raise ValueError(f"`method` {integrator!r} integrates the {integrator.flows[0]} flow only, so alone it needs "
                          "eps = 0 for every trajectory.")
@@ -220,15 +236,54 @@ def solve_ensemble(system, X0, t_span, h=None, method="gonzalez", *, rtol=None, 
                              f"the times of t_eval, or the start and the end); got {save_every!r}.")
         plan = _MarchPlan(t0, *marching(integrator, h, control, t0, t_end, t_eval, False), t_eval)
     _check_memory(plan.rows * n)
-    if backend == "dask":
-        return _on_dask(client, system, X0, t_span, integrator, params, eps, progress, chunk,
-                        threads if threads_given else 1,
-                        dict(h=h, rtol=rtol, atol=atol, first_step=first_step, max_step=max_step, t_eval=t_eval,
-                             save_every=save_every))
-    return _run_local(system, X0, integrator, method_data, params, eps, plan, progress, chunk, threads)
+    if backend == "dask":  # each chunk flagged on its worker (``_dask_task`` runs solve_ensemble)
+        ensemble = _on_dask(client, system, X0, t_span, integrator, params, eps, progress, chunk,
+                            threads if threads_given else 1,
+                            dict(h=h, rtol=rtol, atol=atol, first_step=first_step, max_step=max_step, t_eval=t_eval,
+                                 save_every=save_every))
+        _warn([c[0] if c else None for c in ensemble.caveats], stacklevel=3)
+        return ensemble
+    ensemble = _run_local(system, X0, integrator, method_data, params, eps, plan, progress, chunk, threads)
+    if h is None:
+        caveat = tolerance_caveat(integrator, RTOL if rtol is None else float(rtol), t_end < t0)
+        ran = ~np.isin(ensemble.status, (INVALID_START, NOT_RUN))
+        return _flagged(ensemble, [caveat if caveat and ran[i] else None for i in range(n)])
+    ratio, rate = _step_ratios(system, integrator, h, X0, ensemble.x_final, params, eps)
+    return _flagged(ensemble, [step_caveat(integrator, h, r, q) for r, q in zip(ratio, rate)], step_ratio=ratio)
 
 
-def sweep(system, X0, t_span, h=None, method="gonzalez", *, eps=None, params=None, **options):
+def _step_ratios(system, integrator, h, X0, ends, params, eps):
+    """``solve.step_ratios`` of every trajectory, run with its own eps and params (``RATIO_GROUPS``)."""
+    ratio, rate = np.full(len(X0), np.nan), np.full(len(X0), np.nan)
+    keys, group = np.unique(np.column_stack([eps, params]), axis=0, return_inverse=True)
+    for k, key in enumerate(keys[:RATIO_GROUPS]):
+        members = np.flatnonzero(group.ravel() == k)
+        try:
+            own = system.with_effects(eps=float(key[0]),
+                                      params=None if np.array_equal(key[1:], system.params) else key[1:])
+        except ValueError:  # params refused here were refused per trajectory by the run: their ratio stays NaN
+            continue
+        ratio[members], rate[members] = step_ratios(own, integrator, h, X0[members], ends[members])
+    return ratio, rate
+
+
+def _warn(caveats, stacklevel=4):
+    """One ``AccuracyWarning`` for the trajectories with a caveat (None: none), naming the first; ``stacklevel``
+    points at the caller of ``solve_ensemble``."""
+    flagged = [i for i, caveat in enumerate(caveats) if caveat]
+    if flagged:
+        warnings.warn(f"{len(flagged)} of {len(caveats)} trajectories (the first: {flagged[0]}): {caveats[flagged[0]]}",
+                      AccuracyWarning, stacklevel=stacklevel)
+
+
+def _flagged(ensemble, caveats, **fields):
+    """``ensemble`` with each trajectory's caveat (or None) in ``caveats`` and its message; one warning."""
+    _warn(caveats)
+    messages = tuple(f"{m} {c}" if c else m for m, c in zip(ensemble.messages, caveats))
+    return replace(ensemble, messages=messages, caveats=tuple((c,) if c else () for c in caveats), **fields)
+
+
+def sweep(system, X0, t_span, h=None, method=None, *, eps=None, params=None, **options):
     """Every start of ``X0`` for every combination of ``eps`` (a sequence) and ``params`` (a sequence of parameter
     vectors): one ``solve_ensemble`` over the grid, trajectories ordered eps-major, then params, then starts.
 
@@ -540,4 +595,6 @@ def _concatenate(parts, integrator):
         **{name: np.concatenate([getattr(p, name) for p in parts])
            for name in ("rows", "status", "failed_step", "n_steps", "n_newton", "nfev", "n_rejected", "eps",
                         "params")},
-        messages=tuple(m for p in parts for m in p.messages), method=integrator)
+        messages=tuple(m for p in parts for m in p.messages), method=integrator,
+        caveats=tuple(c for p in parts for c in p.caveats),
+        step_ratio=None if parts[0].step_ratio is None else np.concatenate([p.step_ratio for p in parts]))

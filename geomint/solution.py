@@ -5,6 +5,12 @@ from dataclasses import dataclass
 import numpy as np
 
 
+class AccuracyWarning(UserWarning):
+    """A run that completed but cannot be trusted to the accuracy asked for: a fixed step far beyond the
+    field's time scale, or an adaptive method that cannot meet the tolerance given.  The same sentence is
+    in the result's ``message`` and ``caveats``."""
+
+
 @dataclass(frozen=True)
 class Solution:
     """A trajectory with its invariants, status and work counts.
@@ -45,6 +51,16 @@ class Solution:
     sol : callable or None
         With ``dense_output=True``: the cubic Hermite interpolant through the
         steps (``geomint.dense.Hermite``), ``sol(t)`` of shape (3,) or (3, m).
+    caveats : tuple of str
+        Why the states may not be accurate although the run succeeded (each
+        sentence also ends ``message`` and was issued as an ``AccuracyWarning``):
+        a fixed step far beyond the dynamics (``step_ratio``), or an adaptive
+        method that is not expected to meet ``rtol``.  Empty when none.
+    step_ratio : float or None
+        Fixed steps: ``|h|`` times the field's local rate (the 2-norm of its
+        Jacobian, the larger at the first and the last state; the conservative
+        part only for damped methods).  Above ``geomint.solve.STEP_RATIO_LIMIT``
+        the run is flagged.  None for adaptive steps.
     """
 
     t: np.ndarray
@@ -63,6 +79,8 @@ class Solution:
     t_events: list | None = None
     x_events: list | None = None
     sol: object = None
+    caveats: tuple = ()
+    step_ratio: float | None = None
 
     @property
     def y(self):

@@ -1,11 +1,13 @@
 """``solve``: the one place that validates input and drives the kernels."""
 
 import contextlib
+import dataclasses
 import math
 import os
 import signal
 import threading
 import time
+import warnings
 
 from pathlib import Path
 
@@ -18,8 +20,8 @@ from .dense import Hermite
 from .events import Events
 from .io import atomic
 from ._kernels import layout as _layout
-from .integrators import resolve
-from .solution import Solution
+from .integrators import DormandPrince853, Gonzalez, Projected, resolve
+from .solution import AccuracyWarning, Solution
 from .system import MetriplecticSystem
 
 _FAILURES = {
@@ -47,15 +49,25 @@ FIRST_CHUNK = 1000
 MAX_CHUNK = 10_000_000
 #: the most steps one run may take (step indices and counts stay exact in float64 and int64)
 MAX_STEPS = 1 << 52
-#: scipy's defaults for adaptive steps
-RTOL, ATOL = 1e-3, 1e-6
+#: scipy's default rtol; atol, when not given, is ``ATOL_PER_RTOL * rtol``: scipy's default 1e-6 at its
+#: default rtol, and a floor that moves with rtol, so that rtol alone sets the accuracy
+RTOL, ATOL_PER_RTOL = 1e-3, 1e-3
+#: adaptive steps with no method named run Gonzalez() at rtol >= LOOSE_RTOL (its error along the trajectory
+#: measured 1.3-11 x rtol at 1e-3) and Projected(DormandPrince853()) below it (0.0004-0.1 x rtol, rtol 1e-3 to
+#: 1e-10; docs/coming-from-scipy.md)
+LOOSE_RTOL = 1e-3
+#: a method that controls its error per step (``follows_tolerance`` False) is flagged below this rtol: its error
+#: along the trajectory lags as rtol^(p/(p+1)) and was measured beyond 100 x rtol below it
+PER_STEP_RTOL_FLOOR = 1e-5
+#: fixed steps: a run whose ``|h|`` times the field's local rate exceeds this is flagged (see ``step_ratio``)
+STEP_RATIO_LIMIT = 1e3
 #: rows an adaptive run starts with (doubled as it needs)
 FIRST_ROWS = 1024
 #: the statuses of a run that stopped at a terminal event
 TERMINATED = 1
 
 
-def solve(system, x0, t_span, h=None, method="gonzalez", save_every=1, progress=None, checkpoint=None, resume=None, *,
+def solve(system, x0, t_span, h=None, method=None, save_every=1, progress=None, checkpoint=None, resume=None, *,
           rtol=None, atol=None, first_step=None, max_step=None, t_eval=None, events=None, dense_output=False,
           args=None):
     """Integrate ``dx/dt = xi_P + eps xi_g`` with a fixed step ``h``, or with adaptive steps (``h=None``).
@@ -75,10 +87,18 @@ def solve(system, x0, t_span, h=None, method="gonzalez", save_every=1, progress=
         and at most ``2**52`` steps over ``t_span``.  ``None``: adaptive steps
         with error control (``rtol``, ``atol``); every accepted step keeps H and
         S as the method does (see ``geomint._kernels.adaptive`` for the
-        estimates and the controller).
-    method : Integrator or str, default "gonzalez"
+        estimates and the controller).  A step far beyond the dynamics
+        (``|h|`` times the field's local rate above ``STEP_RATIO_LIMIT``) is
+        run but flagged: ``sol.step_ratio``, ``sol.caveats``, ``message`` and
+        an ``AccuracyWarning``.
+    method : Integrator, str or None, default None
         An integrator object (``geomint.Gonzalez()``, ``geomint.Projected(geomint.DormandPrince54())``)
-        or its short name (``geomint.integrators.INTEGRATORS``).
+        or its short name (``geomint.integrators.INTEGRATORS``).  ``None``:
+        ``Gonzalez()`` for fixed steps, backward spans and adaptive steps at
+        ``rtol >= 1e-3``; ``Projected(DormandPrince853())`` for adaptive steps
+        at a tighter ``rtol`` (``choose_method``).  A named method whose
+        adaptive error is not expected to meet ``rtol`` is run and flagged
+        (``sol.caveats``, ``message``, an ``AccuracyWarning``).
     save_every : int or None, default 1
         Fixed steps: save every ``save_every``-th state (and always the last).
         Adaptive steps: 1 saves every accepted step.  ``None`` keeps only the
@@ -96,10 +116,14 @@ def solve(system, x0, t_span, h=None, method="gonzalez", save_every=1, progress=
         Continue from a checkpoint written by ``solve`` with the same system,
         ``x0``, ``t_span``, ``h``, ``method`` and ``save_every`` (a different
         run is refused), identically, bit for bit, to the run never stopped.
-    rtol, atol : float, default 1e-3, 1e-6 (adaptive steps only)
+    rtol, atol : float, default 1e-3 and ``1e-3 * rtol`` (adaptive steps only)
         The error of each step, ``e``, is kept to
         ``|e_i| <~ atol + rtol |x_i|`` in the root-mean-square norm, as in scipy.
-        ``rtol >= 100 eps``, ``atol >= 0``, not both 0.
+        ``rtol >= 100 eps``, ``atol >= 0``, not both 0.  ``atol`` not given is
+        ``rtol / 1000`` (scipy's 1e-6 at the default rtol), so that rtol alone
+        sets the accuracy: with ``method=None`` the error along the
+        trajectory is within ``rtol`` (measured 0.0004-0.1 x rtol, rtol 1e-4 to
+        1e-10, docs/coming-from-scipy.md).
     first_step, max_step : float or None (adaptive steps only)
         The first step to try (default: chosen from the field, as scipy does)
         and the largest allowed (default: no bound).
@@ -129,6 +153,14 @@ def solve(system, x0, t_span, h=None, method="gonzalez", save_every=1, progress=
         With ``success = False`` and the states up to the failure kept when a
         step fails; never a NaN.  A user function that raises inside a step
         fails that step (``status = -4``, the function named in ``message``).
+        A run flagged as inaccurate (``sol.caveats``) keeps ``success = True``:
+        every step did keep H and S; the caveat says why the states may not
+        follow the trajectory.
+
+    Warns
+    -----
+    AccuracyWarning
+        With each caveat of the run (also in ``sol.caveats`` and ``message``).
 
     Examples
     --------
@@ -137,9 +169,9 @@ def solve(system, x0, t_span, h=None, method="gonzalez", save_every=1, progress=
     >>> sol = geomint.solve(body, [0.4536, 0.0, 0.8912], (0.0, 10.0), h=0.05)
     >>> sol.success, sol.energy_error < 1e-14, sol.S_rises
     (True, True, 0)
-    >>> sol = geomint.solve(body, [0.4536, 0.0, 0.8912], (0.0, 10.0), rtol=1e-8, atol=1e-10)
-    >>> sol.success, sol.energy_error < 1e-14, sol.S_rises
-    (True, True, 0)
+    >>> sol = geomint.solve(body, [0.4536, 0.0, 0.8912], (0.0, 10.0), rtol=1e-8)
+    >>> sol.success, sol.energy_error < 1e-14, sol.S_rises, sol.method == geomint.Projected(geomint.DormandPrince853())
+    (True, True, 0, True)
     """
     if not isinstance(system, MetriplecticSystem):
         raise TypeError(f"`system` must be a geomint.MetriplecticSystem; got {type(system).__name__}.")
@@ -147,7 +179,7 @@ def solve(system, x0, t_span, h=None, method="gonzalez", save_every=1, progress=
         raise TypeError(f"`progress` must be None or a callable taking the steps done; got {progress!r}.")
     if args is not None:
         system = _with_args(system, args)
-    integrator = resolve(method)
+    integrator = choose_method(method, h, rtol, t_span)
     if not integrator.whole_field and system.eps != 0.0:
         raise ValueError(
             f"`method` {integrator!r} integrates the {integrator.flows[0]} flow only, so alone it needs eps = 0; got "
@@ -167,9 +199,117 @@ def solve(system, x0, t_span, h=None, method="gonzalez", save_every=1, progress=
         if checkpoint is not None or resume is not None:
             raise ValueError("`checkpoint` and `resume` serve fixed-step runs without t_eval, events or dense_output; "
                              "give `h` and drop those (or drop checkpoint/resume).")
-        return _marching(system, integrator, method_data, x0, t0, t_end, h, save_every, progress, control,
-                         t_eval, events, dense_output)
-    return _fixed(system, integrator, method_data, x0, t0, t_end, h, save_every, progress, checkpoint, resume)
+        sol = _marching(system, integrator, method_data, x0, t0, t_end, h, save_every, progress, control,
+                        t_eval, events, dense_output)
+    else:
+        sol = _fixed(system, integrator, method_data, x0, t0, t_end, h, save_every, progress, checkpoint, resume)
+    if h is None:
+        caveat = tolerance_caveat(integrator, RTOL if rtol is None else float(rtol), t_end < t0)
+        return _flagged(sol, [caveat] if caveat else [])
+    ratio, rate = step_ratios(system, integrator, h, x0[None], sol.x_final[None])
+    caveat = step_caveat(integrator, h, ratio[0], rate[0])
+    return _flagged(sol, [caveat] if caveat else [], step_ratio=float(ratio[0]))
+
+
+def _flagged(sol, caveats, **fields):
+    """``sol`` with its ``caveats`` (each also appended to ``message`` and issued as an ``AccuracyWarning``)."""
+    for caveat in caveats:
+        warnings.warn(caveat, AccuracyWarning, stacklevel=3)
+    message = " ".join([sol.message, *caveats])
+    return dataclasses.replace(sol, message=message, caveats=tuple(caveats), **fields)
+
+
+def choose_method(method, h, rtol, t_span):
+    """The integrator of a run: ``method`` resolved or, when it is None, ``Gonzalez()`` for fixed steps,
+    backward spans and adaptive steps at ``rtol >= LOOSE_RTOL`` (scipy's default), and
+    ``Projected(DormandPrince853())`` for adaptive steps at a tighter ``rtol``: the method measured to meet
+    it with H exact and S monotone (docs/coming-from-scipy.md).  Shared by ``solve`` and ``solve_ensemble``."""
+    if method is not None:
+        return resolve(method)
+    try:
+        tight = h is None and float(RTOL if rtol is None else rtol) < LOOSE_RTOL and float(t_span[1]) > float(t_span[0])
+    except (TypeError, ValueError, LookupError, OverflowError):
+        tight = False  # refused by name when validated
+    return Projected(DormandPrince853()) if tight else Gonzalez()
+
+
+def follows_tolerance(integrator):
+    """Whether the error along an adaptive run of ``integrator`` follows ``rtol`` (``adaptive`` module
+    docstring): an embedded pair's estimate, an exact flow, or step doubling of order ``p >= 4`` (run at a
+    tolerance-proportional ``rtol^((p+1)/p)``, ``adaptive.proportional_tolerance``).  Any other estimate
+    controls the error per step, and the error along the trajectory lags as ``rtol^(p/(p+1))``."""
+    estimator, _ = integrator.error_estimate()
+    order = integrator.order
+    return estimator == _layout.EMBEDDED or not math.isfinite(order) or (
+        estimator == _layout.DOUBLING and order >= 4)
+
+
+def tolerance_caveat(integrator, rtol, backward=False):
+    """Why an adaptive run of ``integrator`` is not expected to meet ``rtol`` (the error along the trajectory
+    within 100 rtol), or None: a method that controls its error per step, below ``PER_STEP_RTOL_FLOOR``."""
+    if rtol >= PER_STEP_RTOL_FLOOR or follows_tolerance(integrator):
+        return None
+    p = integrator.order
+    advice = ("a backward span allows only methods without an S safeguard: take a fixed step h small enough for "
+              "the accuracy needed" if backward else
+              "leave `method` unset (Projected(DormandPrince853()) is chosen) or use a projected pair")
+    return (f"rtol = {rtol:g} is not expected to be met: {integrator!r} controls its error per step at order "
+            f"{p:g}, so its error along the trajectory lags the tolerance as rtol^({p:g}/{p + 1:g}) (measured "
+            f"beyond 100 x rtol below rtol = {PER_STEP_RTOL_FLOOR:g}; docs/coming-from-scipy.md). For this "
+            f"tolerance with H exact and S monotone, {advice}.")
+
+
+def _damped(integrator):
+    """Whether ``integrator`` or any of its stages damps the dissipative mode (``DampedGonzalez``)."""
+    stages = integrator.sub_methods() if hasattr(integrator, "sub_methods") else ()
+    return bool(getattr(integrator, "damped", False)) or any(_damped(m) for m in stages)
+
+
+def local_rate(system, X, conservative=False):
+    """The field's local rate at each state of ``X`` (shape (n, 3)): the 2-norm of its Jacobian by central
+    differences (6 field evaluations a state, at relative offsets eps^(1/3)); of the conservative part
+    ``xi_P`` alone when ``conservative``.  NaN where a user function raises or a value is not finite."""
+    X = np.asarray(X, dtype=np.float64)
+    n = len(X)
+    delta = np.cbrt(np.finfo(float).eps) * np.max(np.abs(X), axis=1)
+    delta = np.where(delta > 0.0, delta, np.cbrt(np.finfo(float).eps))
+    moves = delta[:, None, None] * np.eye(3)
+    points = np.concatenate([X[:, None, :] + moves, X[:, None, :] - moves], axis=1).reshape(-1, 3)
+    field = system.xi_P if conservative else system.xi
+    try:
+        with np.errstate(all="ignore"):
+            values = np.asarray(field(points), dtype=np.float64).reshape(n, 6, 3)
+            if conservative and not system.hamiltonian:
+                values = np.zeros_like(values)
+            jacobian = ((values[:, :3] - values[:, 3:]) / (2.0 * delta[:, None, None])).transpose(0, 2, 1)
+            rate = np.full(n, np.nan)
+            finite = np.all(np.isfinite(jacobian), axis=(1, 2))
+            rate[finite] = np.linalg.norm(jacobian[finite], 2, axis=(1, 2))
+    except Exception:  # noqa: BLE001 - a user function that raises here leaves the rate unknown, unflagged
+        return np.full(n, np.nan)
+    return rate
+
+
+def step_ratios(system, integrator, h, starts, ends):
+    """``(ratio, rate)`` per trajectory: ``|h|`` times the larger local rate (``local_rate``; the
+    conservative part's for damped methods) at its start and its last state (NaN where neither is known)."""
+    rates = local_rate(system, np.concatenate([starts, ends]), _damped(integrator)).reshape(2, -1)  # one call
+    known = np.any(np.isfinite(rates), axis=0)
+    rate = np.full(rates.shape[1], np.nan)
+    rate[known] = np.nanmax(rates[:, known], axis=0)
+    return abs(h) * rate, rate
+
+
+def step_caveat(integrator, h, ratio, rate):
+    """The sentence flagging a fixed step ``h`` far beyond the dynamics (``ratio > STEP_RATIO_LIMIT``), or None."""
+    if not ratio > STEP_RATIO_LIMIT:
+        return None
+    part = ("the rate of its conservative part (the damped method damps the dissipative one)" if _damped(integrator)
+            else "the field's local rate")
+    return (f"The step h = {abs(h):g} is {ratio:.3g} times the time scale of the dynamics ({part}, the norm of "
+            f"its Jacobian, is {rate:.3g}; flagged above {STEP_RATIO_LIMIT:g}): every step keeps H and S, but the "
+            f"states do not follow the trajectory. Use h of order 1/{rate:.3g} = {1.0 / rate:.3g} or less, or adaptive "
+            "steps (h=None).")
 
 
 def _fixed(system, integrator, method_data, x0, t0, t_end, h, save_every, progress, checkpoint, resume):
@@ -407,9 +547,9 @@ def check_step_or_control(integrator, h, rtol, atol, first_step, max_step, t0, t
 def _check_control(integrator, rtol, atol, first_step, max_step, t0, t_end):
     """The controller's settings, validated; the first step is chosen by ``adaptive.first_step`` when not given."""
     rtol = RTOL if rtol is None else _validate.real("rtol", rtol)
-    atol = ATOL if atol is None else _validate.real("atol", atol)
     if not (math.isfinite(rtol) and rtol >= 100 * np.finfo(float).eps):
         raise ValueError(f"`rtol` must be finite and >= 100 eps = {100 * np.finfo(float).eps:.3g}; got {rtol!r}.")
+    atol = ATOL_PER_RTOL * rtol if atol is None else _validate.real("atol", atol)
     if not (math.isfinite(atol) and atol >= 0.0):
         raise ValueError(f"`atol` must be finite and >= 0; got {atol!r}.")
     span = abs(t_end - t0)

@@ -198,6 +198,7 @@ def test_dask_gives_the_local_arrays_bit_for_bit(dask_client):
     for name in ("t", "x", "H", "S", "rows", "status", "n_newton", "nfev"):
         np.testing.assert_array_equal(getattr(remote, name), getattr(local, name))
     assert remote.messages == local.messages
+    assert remote.caveats == local.caveats and np.array_equal(remote.step_ratio, local.step_ratio)
     local = geomint.solve_ensemble(BODY, STARTS, (0.0, 3.0), rtol=1e-6, t_eval=[1.0, 2.0, 3.0])
     remote = geomint.solve_ensemble(BODY, STARTS, (0.0, 3.0), rtol=1e-6, t_eval=[1.0, 2.0, 3.0], backend="dask",
                                     client=dask_client, chunk=4)
