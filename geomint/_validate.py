@@ -47,3 +47,12 @@ def memory_problem(nbytes):
     if nbytes <= available // 2:
         return None
     return f"needs {nbytes / 2**30:.3g} GiB, more than half this machine's memory ({available / 2**30:.3g} GiB)"
+
+
+def did_you_mean(key, known):
+    """``"; did you mean `name`?"`` for the known name nearest ``key`` (difflib), else ``"."``: the end of an
+    "unknown key" message."""
+    import difflib
+
+    nearest = difflib.get_close_matches(str(key), [str(k) for k in known], n=1, cutoff=0.6)
+    return f"; did you mean `{nearest[0]}`?" if nearest else "."

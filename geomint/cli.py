@@ -23,6 +23,7 @@ import math
 import shutil
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -103,6 +104,8 @@ def drift(steps, h, eps, out=None):
     print(header, file=out)
     failed = False
     for method in (Gonzalez(), RK4()):
+        with _CompilationNotice(method.name, sys.stderr):
+            solve(system, x0, (0.0, h), h, method=method)  # compiles on first use (said so), outside the timing
         start = time.perf_counter()
         sol = solve(system, x0, (0.0, steps * h), h, method=method, save_every=save_every)
         wall = time.perf_counter() - start
@@ -152,7 +155,7 @@ def run(scene_name, out_dir=None, quiet=False, out=None, checkpoint_every=None, 
         temporary.write_text(json.dumps(summary, indent=2) + "\n")
     figures = plotting.draw(result, out_dir)
     if not quiet:
-        _report(summary, [data, summary_path, *figures], out)
+        _report(result, summary, [data, summary_path, *figures], out)
     if result.partial:
         resumable = f"; resume with --resume" if checkpoint else ""
         print(f"geomint: interrupted: {len(result.solutions)} of {scene.n_trajectories} trajectories written "
@@ -171,18 +174,75 @@ def _prepare(system, method, h, quiet):
     counts: a bar that counted the compilation showed a rate and an ETA off by minutes.  One step of the
     method from an arbitrary point, its result discarded: the types of the model and the method, not their
     values, select the compiled code.  Best effort: a point where the system is undefined only leaves the
-    compilation to the run."""
+    compilation to the run.  When numba has to compile (nothing cached yet), that is said once, as it starts,
+    and the seconds are counted on a progress line (``_CompilationNotice``)."""
     if not quiet:
         print("geomint: loading the compiled kernels ...", end=" ", file=sys.stderr, flush=True)
     started = time.perf_counter()
-    try:
-        solve(system, np.full(3, 0.5), (0.0, h), h, method=method)
-    except (ValueError, TypeError):  # refused at the boundary: the run itself reports the scene's own errors
-        pass
-    seconds = time.perf_counter() - started
-    if not quiet:
-        note = " (compiled on this first run; cached on disk for the next ones)" if seconds > 2.0 else ""
-        print(f"{seconds:.2f} s{note}", file=sys.stderr)
+    with _CompilationNotice(method.name, None if quiet else sys.stderr, lead="") as notice:
+        try:
+            solve(system, np.full(3, 0.5), (0.0, h), h, method=method)
+        except (ValueError, TypeError):  # refused at the boundary: the run itself reports the scene's own errors
+            pass
+    if not quiet and not notice.announced:
+        print(f"{time.perf_counter() - started:.2f} s", file=sys.stderr)
+
+
+class _CompilationNotice:
+    """Within this block, the first time numba compiles (a cache miss: ``numba:compile`` events fire only then),
+    say so on ``stream`` before the wait, once, and count the seconds on a progress line (in place, on a
+    terminal) until the block ends, then say how long it took.  ``stream=None``: silent."""
+
+    _INTERVAL = 1.0
+
+    def __init__(self, what, stream, lead="geomint: kernels "):
+        self.what, self.stream, self.lead = what, stream, lead
+        self.announced, self.depth, self.started = False, 0, None
+        self._stop, self._ticker = threading.Event(), None
+
+    def __enter__(self):
+        from numba.core import event
+
+        notice = self
+
+        class Listener(event.Listener):
+            def on_start(self, ev):
+                notice._compiling()
+
+            def on_end(self, ev):
+                pass
+
+        self._listener = Listener()
+        event.register("numba:compile", self._listener)
+        return self
+
+    def _compiling(self):
+        if self.announced or self.stream is None:
+            self.announced = True
+            return
+        self.announced, self.started = True, time.perf_counter()
+        print(f"{self.lead}not cached yet: compiling them for {self.what} (the first use of a method takes 5-25 s, "
+              "once; the machine code is then cached on disk for later runs)", file=self.stream, flush=True)
+        if getattr(self.stream, "isatty", lambda: False)():
+            self._ticker = threading.Thread(target=self._tick, daemon=True)
+            self._ticker.start()
+
+    def _tick(self):
+        while not self._stop.wait(self._INTERVAL):
+            print(f"\rgeomint: compiling ... {time.perf_counter() - self.started:.0f} s", end="", file=self.stream,
+                  flush=True)
+
+    def __exit__(self, *exc):
+        from numba.core import event
+
+        event.unregister("numba:compile", self._listener)
+        self._stop.set()
+        if self._ticker is not None:
+            self._ticker.join()
+            print("\r\033[K", end="", file=self.stream)
+        if self.announced and self.stream is not None:
+            print(f"geomint: compiled in {time.perf_counter() - self.started:.2f} s", file=self.stream, flush=True)
+        return False
 
 
 def _check_output(folder, paths):
@@ -199,16 +259,36 @@ def _check_output(folder, paths):
                               "--out DIR.")
 
 
-def _report(summary, paths, out):
+def _report(result, summary, paths, out):
     totals = summary["totals"]
-    print(f"{summary['scene'].get('title') or summary['system']}", file=out)
-    print(f"{summary['system']}, {summary['method']}", file=out)
+    print(result.scene.title or result.scene.name, file=out)
+    print(describe(result.scene, result.method), file=out)
     print(f"{totals['trajectories']} trajectories, {totals['n_steps']} steps, {totals['n_newton']} Newton "
           f"iterations, {totals['wall_s']:.3g} s; failed: {totals['failed']}", file=out)
     print(f"max |H - H0|/|H0| = {totals['max_energy_error']:.3g} "
-          f"({totals['max_energy_error'] / np.finfo(float).eps:.1f} eps); S rises: {totals['S_rises']}", file=out)
+          f"({totals['max_energy_error'] / np.finfo(float).eps:.1f} ulp); S rises: {totals['S_rises']}", file=out)
     for path in paths:
         print(f"wrote {path}", file=out)
+
+
+def describe(scene, method):
+    """What a scene runs, as a sentence: the system and its parameters, the effects, the method and its options,
+    the step and the span (the run's second line; ε is the dissipation parameter)."""
+    def assigned(data):
+        return ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {_toml_value(v)}"
+                         for k, v in data.items())
+
+    system = scene.system + (" (written as formulas)" if scene.expressions is not None else "")
+    if scene.parameters:
+        system += f" with {assigned(scene.parameters)}"
+    effects = {(True, True): f"Hamiltonian part and dissipation ε = {scene.eps:g}",
+               (True, False): "Hamiltonian part only (ε = 0)",
+               (False, True): f"dissipation ε = {scene.eps:g} only"}[(scene.hamiltonian, scene.eps > 0)]
+    data = method_to_data(method)
+    options = {k: v for k, v in data.items() if k != "name"}
+    integrator = data["name"] + (f" ({assigned(options)})" if options else "")
+    return (f"{system}: {effects}; integrated with {integrator}, h = {scene.h:g} from t = 0 to "
+            f"{scene.duration:g}.")
 
 
 def show(scene_name, out=None):

@@ -7,7 +7,7 @@ scipy runs are measured the same way.
 - ``energy_error(sol)``: ``|H - H0| / |H0|`` at the saved states (absolute when H0 = 0).
 - ``Windows`` / ``windowed_drift``: maxima of the energy error over log-spaced
   windows of time, and ``growth_law``: the fitted ``max ~ C t^p`` ("flat",
-  "sqrt t" = random walk, "t" = linear drift).
+  "sqrt t" = random walk, "t" = linear drift; "round-off" when the maxima stay within 16 ulp).
 - ``S_rises(sol)``: the saved steps where S rose by more than round-off.
 - ``observed_order`` / ``measured_order``: the slope of the error against h
   with the round-off plateau excluded (the GeometricIntegrators.jl audit habit).
@@ -27,6 +27,8 @@ from .integrators import resolve
 from .solve import solve
 
 EPS = float(np.finfo(np.float64).eps)
+#: a drift whose windowed maxima stay within this many ulp (multiples of EPS) is round-off: no law is fitted
+ROUNDOFF_ULPS = 16
 
 
 # -- energy --------------------------------------------------------------------------------
@@ -91,20 +93,27 @@ def windowed_drift(sol, count=20, t_first=None):
     return windows.centers, windows.maxima
 
 
-def growth_law(t, maxima, t_min, floor=1e-17):
+def growth_law(t, maxima, t_min, floor=1e-17, roundoff=ROUNDOFF_ULPS):
     """Fit ``max |H - H0| ~ C t^p`` over windows with ``t >= t_min``; returns ``(p, law)``.
 
     ``law`` is "flat" (p < 0.25), "sqrt t" (p < 0.75: a random walk of
     round-off), "t" (p < 1.25: linear drift) or ``"t^p"``; ``"n/a"`` with
-    fewer than 3 windows.  Values are floored at ``floor`` (exact zeros).
+    fewer than 3 windows; ``"round-off"`` (and ``p`` NaN) when no maximum
+    exceeds ``roundoff`` ulp (``roundoff * EPS``): a slope through a few
+    quantised ulp is noise, not a law.  Values are floored at ``floor``
+    (exact zeros).
 
     >>> t = np.geomspace(1, 1e4, 20)
     >>> growth_law(t, 1e-16 * np.sqrt(t), 1.0)[1]
     'sqrt t'
+    >>> growth_law(t, EPS * np.minimum(np.round(t ** 0.25), 4.0), 1.0)
+    (nan, 'round-off')
     """
     keep = (t >= t_min) & np.isfinite(maxima)
     if np.count_nonzero(keep) < 3:
         return math.nan, "n/a"
+    if np.max(maxima[keep]) <= roundoff * EPS:
+        return math.nan, "round-off"
     p = float(np.polyfit(np.log(t[keep]), np.log(np.maximum(maxima[keep], floor)), 1)[0])
     if p < 0.25:
         return p, "flat"

@@ -26,13 +26,20 @@ def fibonacci_directions(n):
 
 
 def energy_minimiser(system):
-    """The minimiser of H found from the origin (BFGS with the exact gradient): the default centre."""
+    """The minimiser of H found from the origin (BFGS with the exact gradient): the default centre.
+
+    Where H has no minimiser (unbounded below) the search ends wherever BFGS gave up, far out; the level
+    set is then not star-shaped about it, and callers that mesh by rays fall back or refuse.
+    """
     from scipy import optimize  # imported on use: it costs a new process ~0.3 s
 
-    result = optimize.minimize(
-        lambda x: float(system.H(x)), np.zeros(3), jac=lambda x: np.asarray(system.grad_H(x), dtype=float),
-        method="BFGS", options={"gtol": 1e-12},
-    )
+    # H unbounded below (x^2/2 + z): BFGS runs off towards infinity and squares huge steps on the way; that
+    # overflow is the expected outcome of the search, not the user's doing, so numpy is not to warn about it
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        result = optimize.minimize(
+            lambda x: float(system.H(x)), np.zeros(3), jac=lambda x: np.asarray(system.grad_H(x), dtype=float),
+            method="BFGS", options={"gtol": 1e-12},
+        )
     return np.asarray(result.x, dtype=np.float64)
 
 
@@ -86,6 +93,52 @@ def mesh(system, H0, center, n_theta=48, n_phi=96):
     U = np.stack([np.sin(T) * np.cos(F), np.sin(T) * np.sin(F), np.cos(T)], axis=-1).reshape(-1, 3)
     P = on_rays(system, H0, U, center).reshape(n_theta, n_phi, 3)
     return P[..., 0], P[..., 1], P[..., 2]
+
+
+def isosurface(system, H0, low, high, n=28):
+    """Triangles of the level set ``H = H0`` inside the box ``[low, high]``, shape ``(k, 3, 3)``.
+
+    For level sets that are not star-shaped or not bounded (a cylinder), where
+    ``mesh`` cannot parametrise them by rays: marching tetrahedra on an
+    ``n``-point grid per axis (each cube cut into 6 tetrahedra around its main
+    diagonal, so neighbouring cubes agree on their faces), each vertex
+    interpolated linearly on its edge and moved onto the level set by one
+    Newton step along ``grad H``.
+    """
+    low, high = np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64)
+    axes = [np.linspace(low[i], high[i], n) for i in range(3)]
+    points = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    values = np.asarray(system.H(points), dtype=np.float64) - H0
+    base = np.stack(np.meshgrid(*[np.arange(n - 1)] * 3, indexing="ij"), axis=-1).reshape(-1, 3) @ [n * n, n, 1]
+    corner = np.array([[(c >> 2) & 1, (c >> 1) & 1, c & 1] for c in range(8)]) @ [n * n, n, 1]
+    kuhn = corner[np.array([[0, 4, 6, 7], [0, 4, 5, 7], [0, 2, 6, 7], [0, 2, 3, 7], [0, 1, 5, 7], [0, 1, 3, 7]])]
+    tets = (base[:, None, None] + kuhn[None]).reshape(-1, 4)
+    positive = values[tets] > 0.0
+    count = positive.sum(axis=1)
+
+    def cut(a, b):  # the crossings on the edges a-b of the selected tetrahedra
+        fa, fb = values[a], values[b]
+        return points[a] + (fa / (fa - fb))[:, None] * (points[b] - points[a])
+
+    lone = tets[(count == 1) | (count == 3)]
+    odd = positive[(count == 1) | (count == 3)]
+    odd = np.where((odd.sum(axis=1) == 1)[:, None], odd, ~odd)
+    lone = np.take_along_axis(lone, np.argsort(~odd, axis=1, kind="stable"), axis=1)
+    pair = tets[count == 2]
+    pair = np.take_along_axis(pair, np.argsort(~positive[count == 2], axis=1, kind="stable"), axis=1)
+    quads = [cut(pair[:, 0], pair[:, 2]), cut(pair[:, 0], pair[:, 3]), cut(pair[:, 1], pair[:, 3]),
+             cut(pair[:, 1], pair[:, 2])]
+    triangles = np.concatenate([
+        np.stack([cut(lone[:, 0], lone[:, k]) for k in (1, 2, 3)], axis=1),
+        np.stack(quads[:3], axis=1), np.stack([quads[0], quads[2], quads[3]], axis=1)])
+    vertices = triangles.reshape(-1, 3)
+    if len(vertices):
+        gradient = np.atleast_2d(np.asarray(system.grad_H(vertices), dtype=np.float64))
+        norm2 = np.sum(gradient * gradient, axis=1)
+        residual = np.asarray(system.H(vertices), dtype=np.float64) - H0
+        step = np.divide(residual, norm2, out=np.zeros_like(residual), where=norm2 > 0.0)
+        vertices = vertices - step[:, None] * gradient
+    return vertices.reshape(-1, 3, 3)
 
 
 def section(system, H0, center, plane, n_theta=181, n_phi=361):

@@ -15,6 +15,7 @@ A short name alone stands for the method with its defaults:
 
 import dataclasses
 
+from ._validate import did_you_mean
 from .integrators import INTEGRATORS, Integrator
 
 
@@ -80,7 +81,8 @@ def method_from_data(data, key="method"):
             continue
         if option not in options:
             raise MethodDataError(f"{key}.{option}", f"unknown option of {name!r}; it takes "
-                                                     f"{', '.join(sorted(options)) or 'none'}.")
+                                                     f"{', '.join(sorted(options)) or 'none'}"
+                                                     f"{did_you_mean(option, options)}")
         nested = isinstance(getattr(defaults, option), Integrator)
         kwargs[option] = method_from_data(value, f"{key}.{option}") if nested else value
     try:

@@ -41,6 +41,7 @@ _MAX_SURFACES = 3
 _MARKERS = ("o", "s", "^", "v", "D", "P", "X", "<", ">", "*")
 _LINESTYLES = ("-", "--", ":", "-.")
 _TINY = _diagnostics.EPS / 8  # where exact zeros of an error sit on a log axis
+_ULP_LABEL = "1 ulp (machine epsilon)"  # ε is the dissipation parameter; multiples of machine epsilon are ulp
 _CURVE_POINTS = 6  # this many equilibria of one kind, evenly spaced, are drawn as a curve
 _FAR = 1e3  # H < H0 this many mesh radii out: the level set is unbounded
 
@@ -132,13 +133,20 @@ def level_surface(system, solutions, ax=None, *, labels=None, center=None, view=
     box = _fitted_box(paths)
     eye = _eye(view)
     behind = 0
-    for H0 in _distinct_energies(solutions):
+    levels = _distinct_energies(solutions)
+    cube = _around(box)
+    for H0 in levels[:_MAX_SURFACES]:
         surface = _surface(system, H0, center, box)
-        if surface is None:
-            continue
-        box = _union_if_bounded(system, H0, center, box, surface)
-        ax.plot_surface(*_clip(surface, box), color="steelblue", alpha=0.12, linewidth=0.2,
-                        edgecolor="lightsteelblue", shade=False, rstride=2, cstride=2)
+        if surface is None or _unbounded(system, H0, center, _finite(surface)):
+            # not a ray mesh (not star-shaped, or unbounded: a cylinder): the surface in a cube around the trajectories
+            box = np.minimum(box[0], cube[0]), np.maximum(box[1], cube[1])
+            _draw_isosurface(ax, system, H0, box)
+            if surface is None:
+                continue
+        else:
+            box = _fitted_box(np.vstack([_finite(surface), box[0], box[1]]), margin=0.03)
+            ax.plot_surface(*_clip(surface, box), color="steelblue", alpha=0.12, linewidth=0.2,
+                            edgecolor="lightsteelblue", shade=False, rstride=2, cstride=2)
         for plane in sections:
             for curve in _level_set.section(system, H0, center, plane):
                 ax.plot(*_clip_points(curve, box).T, color="darkorange", linewidth=1.4, linestyle="--",
@@ -168,18 +176,29 @@ def level_surface(system, solutions, ax=None, *, labels=None, center=None, view=
     if legend:
         ax.legend(loc="upper left", fontsize=7, ncol=1 if len(solutions) <= 8 else 2)
     count = f"; {len(failed)} of {len(solutions)} failed" if failed else ""
-    levels = ", ".join(f"{H0:.4g}" for H0 in _distinct_energies(solutions))
-    ax.set_title(f"trajectories on H = {levels}{count}", fontsize=10, color="red" if failed else "black")
+    ax.set_title(f"trajectories on {_levels_text(levels)}{count}", fontsize=10, color="red" if failed else "black")
     return ax
 
 
 def _distinct_energies(solutions):
+    """The distinct initial energies, in the order of the solutions (all of them; surfaces are drawn for the
+    first ``_MAX_SURFACES``)."""
     energies = []
     for sol in solutions:
         H0 = float(sol.H[0])
         if all(abs(H0 - E) > 1e-9 * max(abs(E), 1.0) for E in energies):
             energies.append(H0)
-    return energies[:_MAX_SURFACES]
+    return energies
+
+
+def _levels_text(levels):
+    """``H = 0.1, 0.2`` for up to 4 levels, else ``7 levels of H from 0.1 to 0.9``; says when only the first
+    ``_MAX_SURFACES`` surfaces are drawn."""
+    if len(levels) <= 4:
+        text = "H = " + ", ".join(f"{H0:.4g}" for H0 in levels)
+    else:
+        text = f"{len(levels)} levels of H from {min(levels):.4g} to {max(levels):.4g}"
+    return text + (f" (surfaces of the first {_MAX_SURFACES})" if len(levels) > _MAX_SURFACES else "")
 
 
 def _surface(system, H0, center, box):
@@ -198,16 +217,27 @@ def _fitted_box(points, margin=0.08):
     return low - pad, high + pad
 
 
-def _union_if_bounded(system, H0, center, box, surface):
-    """The box of the trajectories and the surface (grown a little, so that points on the surface
-    between mesh nodes stay inside); on an unbounded level set, the trajectories' box, grown."""
+def _finite(surface):
     flat = surface.reshape(-1, 3)
-    flat = flat[np.all(np.isfinite(flat), axis=1)]
-    if not _unbounded(system, H0, center, flat):
-        return _fitted_box(np.vstack([flat, box[0], box[1]]), margin=0.03)
+    return flat[np.all(np.isfinite(flat), axis=1)]
+
+
+def _around(box):
+    """A cube around ``box``, grown a little: where an unbounded level set is drawn."""
     middle = 0.5 * (box[0] + box[1])
     half = 0.6 * max(float(np.max(box[1] - box[0])), 1e-12)
     return middle - half, middle + half
+
+
+def _draw_isosurface(ax, system, H0, box):
+    """``H = H0`` inside ``box`` as triangles (``geomint.level_set.isosurface``), drawn like the ray meshes."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    with np.errstate(all="ignore"):  # the box may reach where H overflows: those cells draw nothing
+        triangles = _level_set.isosurface(system, H0, box[0], box[1])
+    triangles = triangles[np.all(np.isfinite(triangles), axis=(1, 2))]
+    if len(triangles):
+        ax.add_collection3d(Poly3DCollection(triangles, facecolor="steelblue", alpha=0.12, edgecolor="none"))
 
 
 def _unbounded(system, H0, center, mesh_points):
@@ -298,9 +328,10 @@ def _set_limits(ax, box):
 
 # -- invariants over time -----------------------------------------------------------------
 def energy_error(solutions, ax=None, *, labels=None, legend=True):
-    """The running maximum of ``|H - H0| / |H0|`` against t, log scale; machine epsilon marked.
+    """The running maximum of ``|H - H0| / |H0|`` against t, log scale; 1 ulp (machine epsilon) marked.
 
-    Exact zeros are drawn at ``eps / 8``, the bottom of the axis.
+    Exact zeros are drawn at 1/8 ulp, the bottom of the axis.  (Figures write the dissipation
+    parameter as ε and multiples of machine epsilon as ulp.)
     """
     solutions = _as_list(solutions)
     ax = _new_axis(ax)
@@ -309,13 +340,13 @@ def energy_error(solutions, ax=None, *, labels=None, legend=True):
         line = style(i, len(solutions))
         ax.semilogy(sol.t, np.maximum(running, _TINY), color=line["color"], linestyle=line["linestyle"],
                     linewidth=1.2, label=name, drawstyle="steps-post")
-    eps = _diagnostics.EPS
-    ax.axhline(eps, color="0.4", linewidth=0.9, linestyle=":", label="machine epsilon")
+    ulp = _diagnostics.EPS
+    ax.axhline(ulp, color="0.4", linewidth=0.9, linestyle=":", label=_ULP_LABEL)
     worst = max(float(_diagnostics.energy_error(sol).max()) for sol in solutions)
-    top = max(worst * 4, eps * 4)
+    top = max(worst * 4, ulp * 4)
     ax.set_ylim(_TINY / 1.5, top)
     return _finish(ax, "t", "running max |H - H0| / |H0|",
-                   f"energy: max |H - H0|/|H0| = {worst:.2g} ({worst / eps:.3g} eps)", legend and "lower right",
+                   f"energy: max |H - H0|/|H0| = {worst:.2g} ({worst / ulp:.3g} ulp)", legend and "lower right",
                    len(solutions))
 
 
@@ -371,12 +402,20 @@ def drift_windows(series, ax=None, *, legend=True, law_in_key=True, linestyles=N
         line = style(i, len(series))
         if linestyles is not None:
             line["linestyle"] = linestyles[i]
-        fit = f": {law}" + (f" (p = {p:.2f})" if np.isfinite(p) else "") if law_in_key else ""
+        fit = f": {_law_text(p, law)}" if law_in_key else ""
         ax.loglog(centers[keep], np.maximum(maxima[keep], _TINY), markersize=4, linewidth=1.2, label=name + fit,
                   **line)
-    ax.axhline(_diagnostics.EPS, color="0.4", linewidth=0.9, linestyle=":", label="machine epsilon")
-    return _finish(ax, "t", "windowed max |H - H0| / |H0|", "energy drift: windowed maxima and growth law (zeros at eps/8)",
-                   legend and "best", len(series))
+    ax.axhline(_diagnostics.EPS, color="0.4", linewidth=0.9, linestyle=":", label=_ULP_LABEL)
+    return _finish(ax, "t", "windowed max |H - H0| / |H0|",
+                   "energy drift: windowed maxima and growth law (zeros drawn at 1/8 ulp)", legend and "best",
+                   len(series))
+
+
+def _law_text(p, law):
+    """A growth law for a key: ``t (p = 1.02)``; none is claimed at round-off."""
+    if law == "round-off":
+        return f"at round-off (within {_diagnostics.ROUNDOFF_ULPS} ulp), no growth law"
+    return law + (f" (p = {p:.2f})" if np.isfinite(p) else "")
 
 
 def work_precision(curves, ax=None, *, cost="wall", legend=True, error="global error |x(T) - x_ref(T)|"):
@@ -421,7 +460,7 @@ def draw(result, directory):
         path = directory / f"{result.scene.name}.{figure}.png"
         try:
             with atomic(path) as temporary:
-                fig.savefig(temporary, dpi=130, format="png")
+                fig.savefig(temporary, dpi=130, format="png", bbox_inches="tight", pad_inches=0.15)
         finally:
             plt.close(fig)
         paths.append(path)
@@ -443,57 +482,60 @@ def invariants(result, ax_H, ax_S, legend=True):
 
 
 def _overview(plt, result):
-    fig = plt.figure(figsize=(14.5, 6.6))
-    grid = fig.add_gridspec(2, 3, width_ratios=(1.05, 1.0, 0.62), hspace=0.42, wspace=0.25, left=0.0, right=0.99,
+    fig = plt.figure(figsize=(12.0, 6.6))
+    grid = fig.add_gridspec(2, 2, width_ratios=(1.05, 1.0), hspace=0.42, wspace=0.25, left=0.0, right=1.0,
                             top=0.86, bottom=0.09)
     ax3d = fig.add_subplot(grid[:, 0], projection="3d")
     trajectories(result, ax3d, legend=False)
     ax_H, ax_S = fig.add_subplot(grid[0, 1]), fig.add_subplot(grid[1, 1])
     invariants(result, ax_H, ax_S, legend=False)
-    _shared_key(fig, grid[:, 2], [ax3d, ax_H, ax_S])
+    _shared_key(fig, [ax3d, ax_H, ax_S], [ax_H, ax_S])
     fig.suptitle(_title(result), fontsize=11)
     return fig
 
 
-def _shared_key(fig, cell, axes):
-    """One key for the panels: every labelled line and marker, once."""
+def _shared_key(fig, axes, beside):
+    """One key for the panels ``axes``: every labelled line and marker, once, just right of the panels
+    ``beside`` (the figure is saved with a tight bounding box, so the key sets its right edge: no empty
+    column is left between the panels and the key, nor after it)."""
     handles, labels = {}, []
     for ax in axes:
         for handle, label in zip(*ax.get_legend_handles_labels()):
             if label not in handles:
                 handles[label] = handle
                 labels.append(label)
-    key = fig.add_subplot(cell)
-    key.axis("off")
-    key.legend([handles[label] for label in labels], labels, loc="center left", fontsize=7, frameon=False)
+    boxes = [ax.get_position() for ax in beside]
+    right = max(box.x1 for box in boxes)
+    middle = 0.5 * (min(box.y0 for box in boxes) + max(box.y1 for box in boxes))
+    fig.legend([handles[label] for label in labels], labels, loc="center left", bbox_to_anchor=(right + 0.01, middle),
+               fontsize=7, frameon=False, ncol=1 if len(labels) <= 24 else 2)
 
 
 def _trajectories_figure(plt, result):
-    fig = plt.figure(figsize=(10.5, 7.0))
-    grid = fig.add_gridspec(1, 2, width_ratios=(1.0, 0.45), left=0.0, right=0.99, top=0.88, bottom=0.04)
-    ax = fig.add_subplot(grid[0, 0], projection="3d")
+    fig = plt.figure(figsize=(8.0, 7.0))
+    ax = fig.add_axes((0.0, 0.04, 1.0, 0.84), projection="3d")
     trajectories(result, ax, legend=False)
-    _shared_key(fig, grid[0, 1], [ax])
+    _shared_key(fig, [ax], [ax])
     fig.suptitle(_title(result), fontsize=11)
     return fig
 
 
 def _invariants_figure(plt, result):
-    fig = plt.figure(figsize=(10.5, 6.4))
-    grid = fig.add_gridspec(2, 2, width_ratios=(1.0, 0.45), hspace=0.3, left=0.08, right=0.99, top=0.84)
+    fig = plt.figure(figsize=(8.0, 6.4))
+    grid = fig.add_gridspec(2, 1, hspace=0.3, left=0.1, right=0.98, top=0.84)
     ax_H, ax_S = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[1, 0])
     invariants(result, ax_H, ax_S, legend=False)
-    _shared_key(fig, grid[:, 1], [ax_H, ax_S])
+    _shared_key(fig, [ax_H, ax_S], [ax_H, ax_S])
     fig.suptitle(_title(result), fontsize=11)
     return fig
 
 
 def _drift_figure(plt, result):
-    fig = plt.figure(figsize=(10.5, 5.0))
-    grid = fig.add_gridspec(1, 2, width_ratios=(1.0, 0.5), left=0.1, right=0.99, top=0.8)
+    fig = plt.figure(figsize=(8.0, 5.0))
+    grid = fig.add_gridspec(1, 1, left=0.12, right=0.98, top=0.8)
     ax = fig.add_subplot(grid[0, 0])
     drift(result.solutions, ax, labels=_scene_labels(result), legend=False)
-    _shared_key(fig, grid[0, 1], [ax])
+    _shared_key(fig, [ax], [ax])
     fig.suptitle(_title(result), fontsize=11)
     return fig
 
@@ -504,8 +546,8 @@ def _scene_labels(result):
 
 def _title(result):
     scene = result.scene
-    effects = [name for name, on in (("Hamiltonian", scene.hamiltonian), (f"eps = {scene.eps:g}", scene.eps > 0))
-               if on]
+    effects = [name for name, on in (("Hamiltonian", scene.hamiltonian), (f"dissipation ε = {scene.eps:g}",
+                                                                           scene.eps > 0)) if on]
     return (f"{scene.title or scene.name}\n{result.system.name}, {' + '.join(effects) or 'no effect'}, "
             f"{result.method.name}, h = {scene.h:g}")
 

@@ -276,15 +276,14 @@ class Scene:
                     if key == "integrator" and sub not in _LAYOUT[key]:
                         options[sub] = subvalue  # an option of the method, checked when it is built
                     elif sub not in _LAYOUT[key]:
-                        raise SceneError(source, f"{key}.{sub}",
-                                         f"unknown key; `[{key}]` takes {_listing(_LAYOUT[key])}.")
+                        raise SceneError(source, f"{key}.{sub}", _unknown(sub, _LAYOUT[key], f"`[{key}]` takes"))
                     elif sub in _EXPRESSION_KEYS:
                         fields.setdefault("expressions", {})[sub] = subvalue
                     else:
                         fields[_LAYOUT[key][sub]] = subvalue
             else:
                 known = [k for k in _LAYOUT[""]] + [f"[{k}]" for k in _LAYOUT if k]
-                raise SceneError(source, key, f"unknown key; a scene takes {', '.join(known)}.")
+                raise SceneError(source, key, _unknown(key, known, "a scene takes", sort=False))
         if options:
             fields["integrator"] = _with_options(source, fields.get("integrator", "gonzalez"), options)
         if "expressions" in fields:
@@ -455,13 +454,13 @@ class SceneResult:
 
     def summary(self):
         """A JSON-ready dict: invariant errors, S rises, work, wall time, versions, the scene."""
-        eps = float(np.finfo(np.float64).eps)
+        ulp = float(np.finfo(np.float64).eps)  # machine epsilon; `eps` is the dissipation parameter
         trajectories = []
         for sol, wall in zip(self.solutions, self.wall):
             trajectories.append({
                 "x0": sol.x[0].tolist(), "x_final": sol.x_final.tolist(), "t_final": sol.t_final,
                 "H0": float(sol.H[0]), "S0": float(sol.S[0]), "S_final": float(sol.S[-1]),
-                "energy_error": sol.energy_error, "energy_error_in_eps": sol.energy_error / eps,
+                "energy_error": sol.energy_error, "energy_error_in_ulp": sol.energy_error / ulp,
                 "S_rises": sol.S_rises, "success": sol.success, "status": sol.status, "message": sol.message,
                 "n_steps": sol.n_steps, "n_newton": sol.n_newton, "nfev": sol.nfev, "wall_s": wall,
             })
@@ -478,7 +477,8 @@ class SceneResult:
             "scene": self.scene.to_dict(), "system": repr(self.system), "method": method_to_data(self.method),
             "totals": totals, "trajectories": trajectories, "versions": versions(),
             "notes": "energy_error = max |H - H0|/|H0| and S_rises (S up by more than 16 ulps) over the saved "
-                     "states; energy_error_in_eps is it in units of machine epsilon.",
+                     "states; energy_error_in_ulp is it in ulp (units of machine epsilon, 2**-52); "
+                     "scene.effects.eps is the dissipation parameter.",
         }
 
 
@@ -664,7 +664,7 @@ class _Checker:
     def expressions(self, value, parameters):
         unknown = [k for k in value if k not in _EXPRESSION_KEYS]
         if unknown:
-            self.fail(f"system.{unknown[0]}", f"unknown key; a system as formulas takes {_listing(_EXPRESSION_KEYS)}.")
+            self.fail(f"system.{unknown[0]}", _unknown(unknown[0], _EXPRESSION_KEYS, "a system as formulas takes"))
         for key in ("H", "S"):
             if key not in value:
                 self.fail(f"system.{key}", "missing; a system as formulas needs H, S and one of J, P.")
@@ -722,7 +722,7 @@ class _Checker:
             self.fail("level_set", f"must be a table {{ H0 = ..., n = ... }}; got {_describe(value)}.")
         for sub in value:
             if sub not in _LEVEL_SET_KEYS:
-                self.fail(f"{key}.{sub}", f"unknown key; `level_set` takes {_listing(_LEVEL_SET_KEYS)}.")
+                self.fail(f"{key}.{sub}", _unknown(sub, _LEVEL_SET_KEYS, "`level_set` takes"))
         for sub in ("H0", "n"):
             if sub not in value:
                 self.fail(f"{key}.{sub}", "missing; it is required.")
@@ -777,7 +777,8 @@ class _Checker:
             if key == "eps":
                 self.fail(f"system.parameters.{key}", "set the dissipation as `effects.eps`.")
             if key not in known:
-                self.fail(f"system.parameters.{key}", f"unknown parameter of {system!r}; it takes {_listing(known)}.")
+                self.fail(f"system.parameters.{key}", f"unknown parameter of {system!r}; it takes {_listing(known)}"
+                                                      f"{_validate.did_you_mean(key, known)}")
             if isinstance(item, (list, tuple)):
                 out[key] = [self.real(f"system.parameters.{key}", v) for v in item]
             else:
@@ -787,7 +788,20 @@ class _Checker:
 
 
 def _with_options(source, method, options):
-    """``[integrator]`` keys besides method, h, duration: the options of ``method``, as one table."""
+    """``[integrator]`` keys besides method, h, duration: the options of ``method``, as one table.
+
+    A key that is no option of a known method is refused here, naming the nearest key (a misspelt
+    ``duration`` would otherwise be reported as missing)."""
+    from .method_data import options_of, short_names
+
+    cls = short_names().get(method) if isinstance(method, str) else None
+    for option in options:
+        if cls is not None and option not in options_of(cls):
+            known = options_of(cls)
+            takes = f"`[integrator]` takes {_listing(_LAYOUT['integrator'])} and the options of {method!r}: " \
+                    f"{_listing(known) or 'none'}"
+            raise SceneError(source, f"integrator.{option}", _unknown(option, [*_LAYOUT["integrator"], *known],
+                                                                      takes, listed=False))
     if not isinstance(method, str):
         key = f"integrator.{next(iter(options))}"
         raise SceneError(source, key, "give the method's options either as keys of `[integrator]` with "
@@ -798,6 +812,14 @@ def _with_options(source, method, options):
 
 def _listing(names):
     return ", ".join(sorted(str(n) for n in names))
+
+
+def _unknown(key, known, takes, sort=True, listed=True):
+    """The problem of an unknown ``key``: what the table ``takes`` (``known``, listed unless ``listed`` is
+    False: ``takes`` lists them) and the nearest known key, if one is near."""
+    names = [str(k) for k in known]
+    listing = (_listing(names) if sort else ", ".join(names)) if listed else ""
+    return f"unknown key; {takes}{' ' + listing if listing else ''}{_validate.did_you_mean(key, names)}"
 
 
 def _describe(value):

@@ -30,14 +30,23 @@ _VECTOR_FORMS = {
     numba.types.float64[::1]: "array",
 }
 _MATRIX_TYPE = numba.types.float64[:, ::1]
-_HOW_TO_JIT = (
-    "Write it as a numba function of (x, params), e.g.\n"
-    "    @numba.njit\n"
-    "    def grad_H(x, params):\n"
-    "        return (params[0] * x[0], params[1] * x[1], params[2] * x[2])\n"
-    "with x and params float64 arrays; scalars return a float, vectors a 3-tuple "
-    "of floats (fastest) or a float64 array."
-)
+#: per user function: what it returns and the body of an example (the relaxing rigid body's)
+_EXAMPLES = {
+    "H": ("a float", "0.5 * (params[0] * x[0]**2 + params[1] * x[1]**2 + params[2] * x[2]**2)"),
+    "grad_H": ("a 3-tuple of floats (fastest) or a float64 array", "(params[0] * x[0], params[1] * x[1], params[2] * x[2])"),
+    "S": ("a float", "0.5 * (x[0]**2 + x[1]**2 + x[2]**2)"),
+    "grad_S": ("a 3-tuple of floats (fastest) or a float64 array", "(x[0], x[1], x[2])"),
+    "J": ("a 3-tuple of floats (fastest) or a float64 array", "(x[0], x[1], x[2])"),
+    "P": ("a (3, 3) float64 array", "np.array([[0.0, -x[2], x[1]], [x[2], 0.0, -x[0]], [-x[1], x[0], 0.0]])"),
+}
+
+
+def _how_to_jit(name):
+    """How to write the user function ``name`` (``H``, ``grad_H``, ``S``, ``grad_S``, ``J``, ``P``) for numba,
+    with an example of that very function."""
+    returns, body = _EXAMPLES.get(name, _EXAMPLES["grad_H"])
+    return (f"Write it as a numba function of (x, params), e.g.\n    @numba.njit\n    def {name}(x, params):\n"
+            f"        return {body}\nwith x and params float64 arrays; `{name}` returns {returns}.")
 
 
 @dataclass(frozen=True)
@@ -417,13 +426,13 @@ def _compiled_return_type(name, fn):
             raise TypeError(f"`{name}` must be a function of (x, params); got {type(fn).__name__}.")
         return None
     if not isinstance(fn, Dispatcher):
-        raise TypeError(f"`{name}` must be a numba-jitted function; got {fn!r}. {_HOW_TO_JIT}")
+        raise TypeError(f"`{name}` must be a numba-jitted function; got {fn!r}. {_how_to_jit(name)}")
     try:
         fn.compile(_SIGNATURE)
     except Exception as exc:
         raise TypeError(
             f"`{name}` does not compile for (x, params) with float64 arrays: "
-            f"{type(exc).__name__}: {str(exc).splitlines()[0]}. {_HOW_TO_JIT}"
+            f"{type(exc).__name__}: {str(exc).splitlines()[0]}. {_how_to_jit(name)}"
         ) from exc
     return fn.overloads[_SIGNATURE].signature.return_type
 
@@ -440,7 +449,7 @@ def _first_class(fn):
 def _scalar_function(name, fn):
     rtype = _compiled_return_type(name, fn)
     if rtype is not None and rtype not in _SCALAR_TYPES:
-        raise TypeError(f"`{name}` must return a float64; it returns {rtype}. {_HOW_TO_JIT}")
+        raise TypeError(f"`{name}` must return a float64; it returns {rtype}. {_how_to_jit(name)}")
     return fn
 
 
@@ -450,7 +459,7 @@ def _vector_function(name, fn):
         return "python"
     if rtype not in _VECTOR_FORMS:
         raise TypeError(
-            f"`{name}` must return a 3-tuple of floats or a contiguous float64 array; it returns {rtype}. {_HOW_TO_JIT}"
+            f"`{name}` must return a 3-tuple of floats or a contiguous float64 array; it returns {rtype}. {_how_to_jit(name)}"
         )
     return _VECTOR_FORMS[rtype]
 

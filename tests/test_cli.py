@@ -37,13 +37,21 @@ def test_run_writes_data_summary_and_figures(tmp_path, capsys):
     captured = capsys.readouterr()
     report = captured.out
     assert "3 trajectories, 120 steps" in report and "S rises: 0" in report
-    # the kernels are loaded (or compiled) before the progress bar starts, and the time it took is said
-    assert re.match(r"geomint: loading the compiled kernels \.\.\. \d+\.\d\d s", captured.err)
+    # the kernels are loaded (or compiled, said so before the wait) before the progress bar starts, and the time
+    # it took is said
+    assert re.match(r"geomint: loading the compiled kernels \.\.\. (\d+\.\d\d s\n|not cached yet: compiling them "
+                    r"for gonzalez \(.*\)\ngeomint: compiled in \d+\.\d\d s\n)", captured.err)
+    # the second line says what ran, in words (it was a repr and a dict); machine epsilon is ulp, ε the dissipation
+    assert report.splitlines()[1] == ("relaxing_rigid_body with a = 0.5, b = 1, c = 1.5: Hamiltonian part and "
+                                      "dissipation ε = 0.5; integrated with gonzalez (max_newton_iter = 50, compensated "
+                                      "= true), h = 0.05 from t = 0 to 2.")
+    assert re.search(r"max \|H - H0\|/\|H0\| = \S+ \(\d+\.\d ulp\); S rises: 0", report) and " eps" not in report
     data = np.load(out / "short.npz")
     assert sorted(data.files) == ["S", "dS_dt", "rows", "status", "t", "x", "x0"]
     assert data["x"].shape == (3, 11, 3) and np.all(data["status"] == 0)
     summary = json.loads((out / "short.summary.json").read_text())
     assert summary["totals"]["n_steps"] == 120 and summary["totals"]["S_rises"] == 0
+    assert all(t["energy_error_in_ulp"] == t["energy_error"] / np.finfo(float).eps for t in summary["trajectories"])
     assert summary["totals"]["max_energy_error"] < 1e-14
     assert summary["totals"]["n_newton"] > 0 and summary["totals"]["wall_s"] > 0
     assert set(summary["versions"]) == {"geomint", "python", "numpy", "scipy", "numba"}
@@ -225,3 +233,70 @@ def test_an_output_folder_that_cannot_be_written_is_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.startswith("geomint: error: --out ") and "cannot write there (Not a directory)" in err
     assert err.count("\n") == 1
+
+
+def test_a_misspelt_key_is_named_with_the_nearest_known_key(tmp_path, capsys):
+    """Issue 26: `duraton` was reported as `duration: missing`, the unknown key unnamed."""
+    path = _scene(tmp_path, SHORT.replace("duration = 2.0", "duraton = 2.0"))
+    assert main(["run", str(path), "--out", str(tmp_path / "o")]) == BAD_INPUT
+    err = capsys.readouterr().err
+    assert err == (f"geomint: error: {path}: `integrator.duraton`: unknown key; `[integrator]` takes duration, h, "
+                   "method and the options of 'gonzalez': compensated, max_newton_iter; did you mean `duration`?\n")
+    path = _scene(tmp_path, SHORT.replace("[effects]", "[efects]"))
+    assert main(["show", str(path)]) == BAD_INPUT
+    assert capsys.readouterr().err.endswith("; did you mean `[effects]`?\n")
+
+
+def test_the_first_compilation_is_announced_once_before_the_wait(monkeypatch, capsys):
+    """Issue 26, item 6: a first use compiled for 4-22 s in silence, then said so.  Now the first numba
+    compilation (a cache miss) is announced as it starts, once, however many functions compile."""
+    import numba
+
+    from geomint import cli
+
+    def compiling_solve(*args, **kwargs):
+        for k in range(2):  # two fresh functions: two compilations, one announcement
+            assert numba.njit(lambda x, k=k: x + k)(1.0) == 1.0 + k
+        print("<wait>", file=sys.stderr)
+
+    monkeypatch.setattr(cli, "solve", compiling_solve)
+    cli._prepare(None, Gonzalez(), 0.1, quiet=False)
+    err = capsys.readouterr().err
+    assert re.fullmatch(r"geomint: loading the compiled kernels \.\.\. not cached yet: compiling them for gonzalez "
+                        r"\(the first use of a method takes 5-25 s, once; the machine code is then cached on disk for "
+                        r"later runs\)\n<wait>\ngeomint: compiled in \d+\.\d\d s\n", err), err
+    cli._prepare(None, Gonzalez(), 0.1, quiet=True)  # compiles again (new functions), in silence
+    assert capsys.readouterr().err == "<wait>\n"
+
+
+MAXWELL_BLOCH = """
+title = "real Maxwell-Bloch"
+[system]
+name = "maxwell_bloch"
+H = "x**2/2 + z"
+S = "(y**2 + z**2)/2"
+J = ["0", "-y", "-z"]
+[effects]
+eps = 0.05
+[initial]
+points = [[0.5, 0.8, 0.1], [1.0, 0.3, -0.4], [0.2, -0.6, 0.7], [-0.8, 0.5, 0.5]]
+[integrator]
+method = "gonzalez"
+h = 0.02
+duration = 2.0
+[output]
+every = 5
+figures = ["overview"]
+"""
+
+
+def test_a_scene_on_an_unbounded_level_set_runs_without_library_warnings(tmp_path, capsys):
+    """Issue 26: the real Maxwell-Bloch equations (x' = y, y' = x z, z' = -x y; H = x^2/2 + z is unbounded below)
+    printed 54 scipy overflow warnings from the search for the minimiser of H."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert main(["run", str(_scene(tmp_path, MAXWELL_BLOCH)), "--out", str(tmp_path / "o")]) == OK
+    err = capsys.readouterr().err
+    assert "Warning" not in err and err.count("\n") <= 2, err

@@ -27,7 +27,17 @@ def test_windowed_drift_separates_rk4_drift_from_gonzalez():
         assert centers.shape == maxima.shape == (12,)
         laws[method] = diagnostics.growth_law(centers, maxima, t_min=10.0)
     assert laws["rk4"][1] == "t" and 0.75 < laws["rk4"][0] < 1.25
-    assert laws["gonzalez"][1] in ("flat", "sqrt t")
+    assert laws["gonzalez"][1] == "round-off"  # within 16 ulp: no law is fitted to round-off
+
+
+def test_growth_law_is_not_fitted_to_round_off():
+    """Issue 26: maxima of a few quantised ulp were fitted as "sqrt t (p = 0.44)"; within 16 ulp there is no law."""
+    t = np.geomspace(1.0, 1e5, 30)
+    ulps = [1, 1, 2, 1, 2, 2, 1, 2, 3, 2, 2, 3, 2, 3, 3, 2, 3, 4, 3, 3, 4, 3, 4, 4, 3, 4, 5, 4, 5, 4]
+    p, law = diagnostics.growth_law(t, diagnostics.EPS * np.array(ulps, dtype=float), t_min=1.0)
+    assert law == "round-off" and np.isnan(p)
+    assert diagnostics.growth_law(t, 1e-15 * (1 + 0.1 * np.sin(t)), t_min=10.0)[1] == "round-off"
+    assert diagnostics.growth_law(t, 20 * diagnostics.EPS * t**0.5, t_min=1.0)[1] == "sqrt t"  # past 16 ulp: a law
 
 
 def test_windowed_drift_refuses_a_single_state():

@@ -35,6 +35,16 @@ STATIC = [
     (VALID + "colour = 1\n", r"`output.colour`: unknown key; `\[output\]` takes every, figures"),
     ("colour = 1\n" + VALID, r"`colour`: unknown key; a scene takes title, description, \[system\], \[effects\]"),
     (edit("eps = 0.1", "dissipation = 0.1"), r"`effects.dissipation`: unknown key"),
+    # issue 26: a misspelt key is named with the nearest known key (`duraton` was "duration: missing")
+    (edit("duration = 0.5", "duraton = 0.5"), r"`integrator.duraton`: unknown key; `\[integrator\]` takes duration, h, "
+                                              r"method and the options of 'gonzalez': compensated, max_newton_iter; "
+                                              r"did you mean `duration`\?"),
+    (edit("eps = 0.1", "epsilon = 0.1"), r"`effects.epsilon`: unknown key; `\[effects\]` takes eps, hamiltonian, "
+                                          r"projection; did you mean `eps`\?"),
+    (edit("every = 1", "evry = 1"), r"`output.evry`: unknown key; .*; did you mean `every`\?"),
+    (edit("[output]", "[outptu]"), r"`outptu`: unknown key; a scene takes .*; did you mean `\[output\]`\?"),
+    (edit("a = 0.5", "aa = 0.5"), r"`system.parameters.aa`: unknown parameter of 'relaxing_rigid_body'; it takes "
+                                   r"a, b, c; did you mean `a`\?"),
     ("effects = 3\n" + edit("[effects]\neps = 0.1", ""), r"`effects`: must be a table `\[effects\]`; got 3"),
     (edit('name = "relaxing_rigid_body"\n', ""), r"`system.name`: missing; it is required"),
     (edit("h = 0.05\n", ""), r"`integrator.h`: missing; it is required"),
@@ -83,6 +93,8 @@ RESOLVED = [
                                                       r"known: .*gonzalez, .*rk4"),
     (edit('method = "gonzalez"', 'method = { name = "gonzalez", tolerance = 1e-9 }'),
      r"`integrator.method.tolerance`: unknown option of 'gonzalez'; it takes compensated, max_newton_iter"),
+    (edit('method = "gonzalez"', 'method = { name = "gonzalez", max_newton_iters = 9 }'),
+     r"`integrator.method.max_newton_iters`: unknown option of 'gonzalez'; .*; did you mean `max_newton_iter`\?"),
     (edit('method = "gonzalez"', 'method = { name = "gonzalez", max_newton_iter = 0 }'),
      r"`integrator.method`: `max_newton_iter` must be an integer in \[1, 10\*\*6\]; got 0"),
     (edit("a = 0.5", "a = -0.5"), r"`system.parameters`: `a` must be a finite positive number; got -0.5"),

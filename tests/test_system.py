@@ -191,6 +191,18 @@ def test_plain_python_function_is_refused_with_a_fix():
         _oscillator(grad_H=lambda x, p: (x[0], x[1], x[2]))
 
 
+@pytest.mark.parametrize("name, returns", [("H", "a float"), ("S", "a float"), ("J", "a 3-tuple of floats"),
+                                           ("grad_S", "a 3-tuple of floats")])
+def test_the_fix_for_a_plain_python_function_shows_an_example_of_that_function(name, returns):
+    """Issue 26: a non-jitted H was shown an example of grad_H."""
+    with pytest.raises(TypeError) as error:
+        _oscillator(**{name: lambda x, p: 0.0})
+    message = str(error.value)
+    assert f"@numba.njit\n    def {name}(x, params):\n        return " in message
+    assert f"`{name}` returns {returns}" in message
+    assert message.count("def ") == 1
+
+
 def test_wrong_return_types_are_refused():
     with pytest.raises(TypeError, match=r"`S` must return a float64; it returns Literal\[int\]\(1\)"):
         _oscillator(S=_int_S)
