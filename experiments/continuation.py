@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 import geomint
-from geomint.continuation import continuation
+from geomint.analysis.continuation import continuation
 from geomint.plotting import continuation_figure, draw
 
 from .report import DOCS, markdown_table

@@ -14,7 +14,7 @@ from scipy.integrate import solve_ivp
 import geomint
 from geomint.diagnostics import Windows, growth_law, median_time  # noqa: F401 (used by drift, work_precision)
 
-from .compiled import lsoda_rhs, scipy_rhs
+from .compiled import scipy_rhs
 
 #: solve_ivp's absolute tolerance as a fraction of its relative tolerance (states are O(1))
 ATOL_FRACTION = 1e-3

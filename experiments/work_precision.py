@@ -20,7 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from geomint import plotting
-from geomint.diagnostics import Curve, cost_to_reach, error_along, work_precision
+from geomint.diagnostics import cost_to_reach, error_along
+from geomint.studies import Curve, work_precision
 
 from . import problems
 from .compiled import lsoda_rhs, scipy_rhs

@@ -1,26 +1,49 @@
-"""geomint: structure-preserving integrators for metriplectic systems in R^3."""
+"""geomint: structure-preserving integrators for metriplectic systems in R^3.
 
-from . import analysis, continuation, diagnostics, events, level_set, reference, systems
-from .integrators import (
-    AVF, RK4, BogackiShampine32, Composition, DampedGonzalez, DormandPrince54, DormandPrince853, Gonzalez, Integrator, ItohAbe, KahanLi6, KahanLi8, Lie, OscillatorRotation,
-    Projected, RigidBodyFlow, RotorSplitting, Strang, Suzuki4, SuzukiUmeno8, SymmetrizedItohAbe, Yoshida4, Yoshida6,
-)
+The package, layer by layer (each imports only the layers below it; ``tests/test_architecture.py``):
+
+* ``_kernels/``     how a step is computed: numba only;
+* ``model/``        what the equation is: ``MetriplecticSystem``, systems written as formulas;
+* ``systems/``      the catalogue, and closed-form reference solutions;
+* ``integrators/``  what a method is: methods as data on the one engine, and their plain-data form;
+* ``results/``      what a run gives back: ``Solution``, dense output, save and load;
+* ``run/``          how a run is driven: ``solve``, outcomes (``Status``), events, ensembles;
+* ``diagnostics``, ``studies``: measures on results, and runs about runs;
+* ``analysis/``     the paper's propositions, equilibria and their stability, continuation in eps;
+* ``scene/``, ``plotting/``, ``cli``: declarative runs, figures, the command line;
+* ``testing``       hypothesis strategies and ulp-scaled assertions for users' tests.
+"""
+
+import sys as _sys
+
+from . import analysis, diagnostics, studies, systems
 from ._user_errors import UserFunctionError
-from .ensemble import Ensemble, solve_ensemble, sweep
-from .io import load
+from ._version import __version__
+from .analysis import continuation, level_set
+from .integrators import (
+    AVF, RK4, BogackiShampine32, Composition, DampedGonzalez, DormandPrince54, DormandPrince853, Gonzalez,
+    Integrator, ItohAbe, KahanLi6, KahanLi8, Lie, OscillatorRotation, Projected, RigidBodyFlow, RotorSplitting,
+    Strang, Suzuki4, SuzukiUmeno8, SymmetrizedItohAbe, Yoshida4, Yoshida6,
+)
+from .model.system import MetriplecticSystem
+from .results.solution import AccuracyWarning, Solution, load
+from .run import events
+from .run.ensemble import Ensemble, solve_ensemble, sweep
+from .run.solve import solve
 from .scene import Scene, SceneError, SceneResult, run_scene
-from .solution import AccuracyWarning, Solution
-from .solve import solve
-from .system import MetriplecticSystem
+from .systems import reference
 
-__version__ = "0.1.0"
+# the public modules that moved into a layer stay importable under their earlier names
+for _name, _module in (("continuation", continuation), ("level_set", level_set), ("events", events),
+                       ("reference", reference)):
+    _sys.modules[f"{__name__}.{_name}"] = _module
+del _name, _module
 
 __all__ = [
-    "AccuracyWarning",
-    "AVF", "RK4", "BogackiShampine32", "Composition", "DampedGonzalez", "DormandPrince54", "DormandPrince853",
-    "Ensemble", "Gonzalez", "Integrator", "ItohAbe", "KahanLi6",
-    "KahanLi8", "Lie", "MetriplecticSystem", "OscillatorRotation", "Projected", "RigidBodyFlow", "RotorSplitting",
-    "Scene", "SceneError", "SceneResult", "Solution", "Strang", "Suzuki4", "SuzukiUmeno8", "SymmetrizedItohAbe",
-    "UserFunctionError", "Yoshida4", "Yoshida6", "__version__", "analysis", "continuation", "diagnostics", "events", "level_set",
-    "load", "reference", "run_scene", "solve", "solve_ensemble", "sweep", "systems",
+    "AVF", "RK4", "AccuracyWarning", "BogackiShampine32", "Composition", "DampedGonzalez", "DormandPrince54",
+    "DormandPrince853", "Ensemble", "Gonzalez", "Integrator", "ItohAbe", "KahanLi6", "KahanLi8", "Lie",
+    "MetriplecticSystem", "OscillatorRotation", "Projected", "RigidBodyFlow", "RotorSplitting", "Scene", "SceneError",
+    "SceneResult", "Solution", "Strang", "Suzuki4", "SuzukiUmeno8", "SymmetrizedItohAbe", "UserFunctionError",
+    "Yoshida4", "Yoshida6", "__version__", "analysis", "continuation", "diagnostics", "events", "level_set", "load",
+    "reference", "run_scene", "solve", "solve_ensemble", "studies", "sweep", "systems",
 ]

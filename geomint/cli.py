@@ -29,13 +29,13 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
+from ._version import __version__
 from ._kernels.layout import INTERRUPTED as _INTERRUPTED
-from .io import atomic
+from ._files import atomic
 from .integrators import RK4, Gonzalez
-from .method_data import method_to_data, options_of, short_names
+from .integrators.data import method_to_data, options_of, short_names
 from .scene import FIGURES, OBSERVABLES, CheckpointError, SceneError, bundled_scenes, load, run_scene
-from .solve import MAX_STEPS, solve
+from .run.solve import MAX_STEPS, solve
 from .systems import CATALOGUE, relaxing_rigid_body
 
 OK, FAILED, BAD_INPUT, INTERNAL, INTERRUPTED = 0, 1, 2, 3, 130
@@ -157,7 +157,7 @@ def run(scene_name, out_dir=None, quiet=False, out=None, checkpoint_every=None, 
     if not quiet:
         _report(result, summary, [data, summary_path, *figures], out)
     if result.partial:
-        resumable = f"; resume with --resume" if checkpoint else ""
+        resumable = "; resume with --resume" if checkpoint else ""
         print(f"geomint: interrupted: {len(result.solutions)} of {scene.n_trajectories} trajectories written "
               f"(the last one cut short), marked \"partial\" in {summary_path}{resumable}", file=sys.stderr)
         return INTERRUPTED

@@ -9,12 +9,25 @@ scipy runs are measured the same way.
   windows of time, and ``growth_law``: the fitted ``max ~ C t^p`` ("flat",
   "sqrt t" = random walk, "t" = linear drift; "round-off" when the maxima stay within 16 ulp).
 - ``S_rises(sol)``: the saved steps where S rose by more than round-off.
-- ``observed_order`` / ``measured_order``: the slope of the error against h
-  with the round-off plateau excluded (the GeometricIntegrators.jl audit habit).
-- ``work_precision`` / ``cost_to_reach`` / ``error_along``: error (at T or along the trajectory)
-  against wall time and field evaluations over a sweep of step sizes or
-  tolerances, and the cost to reach an error.
+- ``observed_order``: the slope of the error against h with the round-off plateau excluded (the
+  GeometricIntegrators.jl audit habit).
+- ``cost_to_reach`` / ``error_along`` / ``median_time``: the cost to reach an error, the error along a
+  trajectory, a median wall time.
+
+Runs about runs (``reference_solution``, ``measured_order``, ``work_precision``, ``Curve``) are in
+``geomint.studies``: they call ``solve``, which this module, a measure of results, does not.
 """
+
+#: names that moved to ``geomint.studies``; reached here as before (``__getattr__``)
+MOVED_TO_STUDIES = ("Curve", "measured_order", "reference_solution", "work_precision")
+
+
+def __getattr__(name):
+    if name in MOVED_TO_STUDIES:
+        from . import studies  # a run layer above this one: only for the names that moved there
+
+        return getattr(studies, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 import math
 import statistics
@@ -23,8 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .integrators import resolve
-from .solve import solve
+from .results.solution import S_rises  # noqa: F401 (a measure of one Solution, defined beside it)
 
 EPS = float(np.finfo(np.float64).eps)
 #: a drift whose windowed maxima stay within this many ulp (multiples of EPS) is round-off: no law is fitted
@@ -124,19 +136,6 @@ def growth_law(t, maxima, t_min, floor=1e-17, roundoff=ROUNDOFF_ULPS):
     return p, f"t^{p:.1f}"
 
 
-# -- the Casimir ---------------------------------------------------------------------------
-def S_rises(sol, ulps=16):
-    """Indices ``k`` of the saved pairs where S rose in forward time: ``d (S_{k+1} - S_k) > ulps * eps *
-    max(|S_k|, |S_{k+1}|)``, ``d`` the sign of ``t_{k+1} - t_k`` (a backward run sees S rise as t falls).
-
-    ``len(S_rises(sol))`` is ``sol.count_S_rises(ulps)``; the indices say where
-    (``sol.t[k + 1]``), for plots.
-    """
-    S = sol.S
-    tol = ulps * EPS * np.maximum(np.abs(S[:-1]), np.abs(S[1:]))
-    return np.flatnonzero(np.sign(np.diff(sol.t)) * np.diff(S) > tol)
-
-
 # -- orders --------------------------------------------------------------------------------
 def observed_order(step_sizes, errors, floor=1e-13):
     """Least-squares slope of ``log error`` against ``log h``, round-off plateau excluded.
@@ -164,48 +163,7 @@ def observed_order(step_sizes, errors, floor=1e-13):
     return float(slope)
 
 
-def reference_solution(system, x0, t_end, rtol=1e-13, atol=1e-15):
-    """``x(t_end)`` by scipy's DOP853 at tight tolerances (structure-blind, for error measurements)."""
-    from scipy.integrate import solve_ivp
-
-    result = solve_ivp(
-        lambda t, x: system.xi(x), (0.0, t_end), np.asarray(x0, dtype=float), method="DOP853", rtol=rtol, atol=atol
-    )
-    if not result.success:
-        raise RuntimeError(f"the DOP853 reference failed: {result.message}")
-    return result.y[:, -1]
-
-
-def measured_order(system, method, x0, t_end, step_sizes, reference=None, floor=1e-13):
-    """Observed order of ``method`` on ``system`` from ``x0`` to ``t_end``: the slope of the
-    relative final-state error against ``h`` (``observed_order``), against ``reference``
-    (default: ``reference_solution``).  Returns ``(order, errors)``.
-    """
-    method = resolve(method)
-    reference = reference_solution(system, x0, t_end) if reference is None else np.asarray(reference)
-    errors = []
-    for h in step_sizes:
-        sol = solve(system, x0, (0.0, t_end), h, method=method, save_every=None)
-        if not sol.success:
-            raise RuntimeError(f"h = {h:g}: {sol.message}")
-        errors.append(float(np.max(np.abs(sol.x_final - reference)) / np.max(np.abs(reference))))
-    return observed_order(step_sizes, errors, floor), errors
-
-
 # -- work and precision --------------------------------------------------------------------
-@dataclass
-class Curve:
-    """One method's work-precision sweep: per run its setting (h or rtol), wall time, field evaluations, error."""
-
-    label: str
-    kind: str = "geomint"
-    structure_preserving: bool = False
-    wall: list = field(default_factory=list)
-    nfev: list = field(default_factory=list)
-    error: list = field(default_factory=list)
-    setting: list = field(default_factory=list)
-
-
 def median_time(run, repeats, budget=2.0):
     """Median wall time of ``run()`` over ``repeats`` calls (fewer when they exceed ``budget`` s in all).
 
@@ -226,73 +184,6 @@ def error_along(sol, reference):
     """The largest distance ``|x_k - reference(t_k)|_2`` over the states of ``sol``; ``reference(t)`` gives
     ``(len(t), 3)`` states (e.g. a dense DOP853 solution, transposed)."""
     return float(np.max(np.linalg.norm(sol.x - reference(sol.t), axis=1)))
-
-
-def work_precision(system, x0, t_end, method, step_counts, reference, repeats=3, point_budget=2.0,
-                   sweep_budget=math.inf, label=None, *, tolerances=None, samples=1000):
-    """Error against cost over a sweep of fixed steps ``h = T / n`` or of tolerances ``rtol = atol``.
-
-    Parameters
-    ----------
-    system, x0, method
-        As for ``geomint.solve``.
-    t_end : float
-        The end time ``T``.
-    step_counts : sequence of int, or None
-        Numbers of fixed steps ``n``, coarse to fine; ``None`` with ``tolerances``.
-    reference : (3,) array, or callable
-        ``x(T)`` (e.g. ``reference_solution``): the error is ``|x(T) - reference|_2``.
-        Or ``reference(t) -> (len(t), 3)`` (e.g. a dense DOP853 solution's ``sol``):
-        the error is measured **along the trajectory**, ``max_k |x_k - reference(t_k)|_2``
-        over the returned states (fixed steps save about ``samples`` of them, adaptive
-        runs every accepted step).
-    repeats, point_budget
-        Median wall time over ``repeats`` runs, fewer past ``point_budget`` seconds.
-    sweep_budget : float
-        Stop refining after this many seconds; refining stops also once two
-        consecutive errors are below 1e-13 (round-off).
-    tolerances : sequence of float, optional
-        Adaptive runs (``h=None``) with ``rtol = atol`` = each value, loose to tight.
-    samples : int
-        Saved states per fixed-step run when the error is measured along the trajectory.
-
-    Returns a ``Curve`` whose ``setting`` holds h or rtol (failed runs are left out).
-    """
-    method = resolve(method)
-    if (step_counts is None) == (tolerances is None):
-        raise ValueError("work_precision: give exactly one of `step_counts` (fixed steps) and `tolerances` "
-                         f"(adaptive steps); got step_counts={step_counts!r}, tolerances={tolerances!r}.")
-    along = callable(reference)
-    curve = Curve(label or method.name, "geomint", bool(method.energy_exact and method.dissipative))
-
-    def run(setting):
-        if tolerances is not None:
-            return solve(system, x0, (0.0, t_end), rtol=setting, atol=setting, method=method,
-                         save_every=1 if along else None)
-        n = round(t_end / setting)
-        return solve(system, x0, (0.0, t_end), setting, method=method,
-                     save_every=max(1, n // samples) if along else None)
-
-    def error(sol):
-        return error_along(sol, reference) if along else float(np.linalg.norm(sol.x_final - reference))
-
-    settings = tolerances if tolerances is not None else [t_end / n for n in step_counts]
-    run(settings[0])  # warm-up: compile
-    plateau, start = 0, time.perf_counter()
-    for setting in settings:
-        if time.perf_counter() - start > sweep_budget:
-            break
-        seconds, sol = median_time(lambda: run(setting), repeats, point_budget)
-        if not sol.success:
-            continue
-        curve.wall.append(seconds)
-        curve.nfev.append(sol.nfev)
-        curve.error.append(error(sol))
-        curve.setting.append(setting)
-        plateau = plateau + 1 if curve.error[-1] < 1e-13 else 0
-        if plateau == 2:
-            break
-    return curve
 
 
 def cost_to_reach(cost, error, target):

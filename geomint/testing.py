@@ -18,9 +18,10 @@ from hypothesis import assume, reject
 from hypothesis import strategies as st
 
 from . import systems as _catalogue
-from .diagnostics import measured_order, observed_order, reference_solution  # noqa: F401 (re-exported for tests)
+from .diagnostics import observed_order  # noqa: F401 (re-exported for tests)
+from .studies import measured_order, reference_solution  # noqa: F401 (re-exported for tests)
 from .integrators import INTEGRATORS
-from .solve import solve
+from .run.solve import solve
 
 EPS = np.finfo(np.float64).eps
 

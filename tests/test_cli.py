@@ -13,7 +13,7 @@ import pytest
 
 from geomint import Gonzalez, Projected, Yoshida4
 from geomint.cli import BAD_INPUT, FAILED, OK, main
-from geomint.method_data import short_names
+from geomint.integrators.data import short_names
 from geomint.scene import Scene, SceneError, bundled_scenes
 from test_scene_errors import VALID
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import geomint
-from geomint.continuation import continuation
+from geomint.analysis.continuation import continuation
 
 EPS_VALUES = [0.0, 0.01, 0.1, 1.0, 10.0]
 

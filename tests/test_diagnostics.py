@@ -5,7 +5,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import geomint
-from geomint import diagnostics
+from geomint import diagnostics, studies
 
 BODY = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
 X0 = [np.cos(1.1), 0.0, np.sin(1.1)]
@@ -61,8 +61,8 @@ def test_S_rises_locate_rises_beyond_round_off_only():
 
 def test_measured_order_of_rk4_and_gonzalez():
     steps = [0.2, 0.1, 0.05, 0.025]
-    rk4, _ = diagnostics.measured_order(BODY, "rk4", X0, 2.0, steps)
-    gonzalez, _ = diagnostics.measured_order(BODY, "gonzalez", X0, 2.0, steps)
+    rk4, _ = studies.measured_order(BODY, "rk4", X0, 2.0, steps)
+    gonzalez, _ = studies.measured_order(BODY, "gonzalez", X0, 2.0, steps)
     assert abs(rk4 - 4) < 0.2 and abs(gonzalez - 2) < 0.1
 
 
@@ -73,8 +73,8 @@ def test_observed_order_excludes_the_round_off_plateau():
 
 
 def test_work_precision_errors_fall_with_the_cost_and_cost_to_reach_reads_them():
-    reference = diagnostics.reference_solution(BODY, X0, 2.0)
-    curve = diagnostics.work_precision(BODY, X0, 2.0, "gonzalez", [10, 20, 40, 80], reference, repeats=1)
+    reference = studies.reference_solution(BODY, X0, 2.0)
+    curve = studies.work_precision(BODY, X0, 2.0, "gonzalez", [10, 20, 40, 80], reference, repeats=1)
     assert curve.label == "gonzalez" and curve.structure_preserving
     assert np.all(np.diff(curve.error) < 0) and np.all(np.diff(curve.nfev) > 0)
     cost = diagnostics.cost_to_reach(curve.nfev, curve.error, curve.error[1])
@@ -86,13 +86,13 @@ def test_work_precision_over_tolerances_measures_the_error_along_the_trajectory(
     states, so it is at least the error at T; fixed steps save about ``samples`` states."""
     dense = solve_ivp(lambda t, y: BODY.xi(y), (0.0, 2.0), X0, method="DOP853", rtol=1e-13, atol=1e-15,
                       dense_output=True).sol
-    along = diagnostics.work_precision(BODY, X0, 2.0, geomint.Projected(geomint.DormandPrince54()), None, lambda t: dense(t).T, repeats=1,
+    along = studies.work_precision(BODY, X0, 2.0, geomint.Projected(geomint.DormandPrince54()), None, lambda t: dense(t).T, repeats=1,
                                        tolerances=[1e-4, 1e-6, 1e-8])
-    at_T = diagnostics.work_precision(BODY, X0, 2.0, geomint.Projected(geomint.DormandPrince54()), None, dense(2.0), repeats=1,
+    at_T = studies.work_precision(BODY, X0, 2.0, geomint.Projected(geomint.DormandPrince54()), None, dense(2.0), repeats=1,
                                       tolerances=[1e-4, 1e-6, 1e-8])
     assert along.setting == [1e-4, 1e-6, 1e-8] and np.all(np.diff(along.error) < 0)
     assert np.all(np.array(along.error) >= np.array(at_T.error)) and np.any(np.array(along.error) > at_T.error)
-    fixed = diagnostics.work_precision(BODY, X0, 2.0, "rk4", [2000], lambda t: dense(t).T, repeats=1, samples=100)
+    fixed = studies.work_precision(BODY, X0, 2.0, "rk4", [2000], lambda t: dense(t).T, repeats=1, samples=100)
     assert fixed.error[0] < 1e-11
     with pytest.raises(ValueError, match="give exactly one of `step_counts`"):
-        diagnostics.work_precision(BODY, X0, 2.0, "rk4", [10], dense(2.0), tolerances=[1e-6])
+        studies.work_precision(BODY, X0, 2.0, "rk4", [10], dense(2.0), tolerances=[1e-6])

@@ -9,7 +9,7 @@ import pytest
 from numba import njit
 
 import geomint
-from geomint import expressions
+from geomint.model import expressions
 from hostile_strings import hostile
 
 LORENZ_NEVIR = dict(H="(y**2 + z**2)/2 - r*z", S="x**2/2 - sigma*z", J=("-x", "0", "sigma"),

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import geomint
-from geomint import io
+from geomint.results import io
 
 BODY = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
 X0 = [0.6, 0.0, 0.8]

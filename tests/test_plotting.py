@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import geomint
-from geomint import diagnostics, plotting
+from geomint import diagnostics, plotting, studies
 
 BODY = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
 X0 = [np.cos(1.1), 0.0, np.sin(1.1)]
@@ -81,8 +81,8 @@ def test_level_surface_draws_a_circle_of_equilibria_as_a_curve():
 
 
 def test_work_precision_draws_one_keyed_line_per_curve():
-    reference = diagnostics.reference_solution(BODY, X0, 1.0)
-    curves = [diagnostics.work_precision(BODY, X0, 1.0, m, [5, 10, 20], reference, repeats=1) for m in ("gonzalez", "rk4")]
+    reference = studies.reference_solution(BODY, X0, 1.0)
+    curves = [studies.work_precision(BODY, X0, 1.0, m, [5, 10, 20], reference, repeats=1) for m in ("gonzalez", "rk4")]
     ax = plotting.work_precision(curves, cost="nfev")
     assert _labels(ax) == ["gonzalez", "rk4"]
     assert [line.get_linestyle() for line in ax.get_lines()] == ["-", "--"]

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import geomint
-from geomint import level_set
+from geomint import analysis, level_set
 from geomint.scene import OBSERVABLES, Scene, bundled_scenes, load, run_scene
 from geomint.testing import term_scale
 
@@ -204,7 +204,7 @@ def test_level_set_below_the_centre_is_refused():
      {(0, 0, 1): "unstable", (0, 0, -1): "unstable", (1, 0, 0): "stable", (-1, 0, 0): "unstable"}),
 ])
 def test_equilibria_on_the_level_set_match_the_paper(system, H0, expected):
-    found = level_set.equilibria(system, H0, np.zeros(3))
+    found = analysis.equilibrium_points(system, H0, np.zeros(3))
     kinds = {tuple(int(v) for v in np.sign(np.where(np.abs(x) > 1e-6, x, 0.0))): kind for x, kind in found}
     assert len(found) == len(expected) and kinds == expected
     for x, _ in found:

@@ -21,7 +21,7 @@ from scipy.integrate import solve_ivp
 import geomint
 import geomint.testing as gt
 from geomint import AccuracyWarning
-from geomint.solve import STEP_RATIO_LIMIT
+from geomint.run.solve import STEP_RATIO_LIMIT
 
 #: x' = y, y' = x z, z' = -x y (real Maxwell-Bloch): H = x^2/2 + z and the Casimir y^2 + z^2
 MAXWELL_BLOCH = geomint.MetriplecticSystem.from_expressions(

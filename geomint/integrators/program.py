@@ -14,7 +14,7 @@ import numpy as np
 
 from .._kernels import composition as _comp
 from .._kernels import layout
-from ..system import MetriplecticSystem
+from ..model.system import MetriplecticSystem
 
 FLOWS = {"full": layout.FULL, "hamiltonian": layout.HAMILTONIAN, "gradient": layout.GRADIENT}
 

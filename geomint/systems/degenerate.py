@@ -5,7 +5,7 @@ import numbers
 from numba import njit
 
 from .._cache import CACHE
-from ..system import MetriplecticSystem
+from ..model.system import MetriplecticSystem
 
 
 @njit(cache=CACHE)

@@ -4,7 +4,7 @@ from numba import njit
 
 from .._cache import CACHE
 from .._validate import real
-from ..system import MetriplecticSystem
+from ..model.system import MetriplecticSystem
 
 
 @njit(cache=CACHE)

@@ -47,7 +47,7 @@ import sys
 import sympy
 from sympy.printing.pycode import PythonCodePrinter
 
-from . import _cache
+from .. import _cache
 
 #: function name in a formula -> (sympy function, how the generated code computes it)
 FUNCTIONS = {

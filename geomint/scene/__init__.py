@@ -69,15 +69,16 @@ from pathlib import Path
 
 import numpy as np
 
-from . import _validate
-from . import io as _io
-from . import level_set as _level_set
-from . import diagnostics as _diagnostics
-from .method_data import MethodDataError, method_from_data, method_to_data
-from ._kernels.layout import INTERRUPTED
-from .solve import MAX_STEPS, solve, step_count
-from .system import MetriplecticSystem
-from .systems import CATALOGUE
+from .. import _validate
+from ..results import io as _io
+from ..results import solution as _solution
+from ..analysis import level_set as _level_set
+from .. import diagnostics as _diagnostics
+from ..integrators.data import MethodDataError, method_from_data, method_to_data
+from .._kernels.layout import INTERRUPTED
+from ..run.solve import MAX_STEPS, solve, step_count
+from ..model.system import MetriplecticSystem
+from ..systems import CATALOGUE
 
 
 class SceneError(ValueError):
@@ -302,7 +303,7 @@ class Scene:
     def build_system(self):
         """The system (catalogue or formulas) with this scene's parameters and effects."""
         if self.expressions is not None:
-            from . import expressions as _expressions  # sympy (~0.5 s to import) only for systems as formulas
+            from ..model import expressions as _expressions  # sympy (~0.5 s to import) only for systems as formulas
 
             try:
                 kwargs = _expressions.build(**self.expressions, params=self.parameters, eps=self.eps,
@@ -508,7 +509,7 @@ def run_scene(scene, progress=None, checkpoint=None, resume=False, before_steps=
     solutions, wall, partial = [], [], False
     for i, x0 in enumerate(states):
         if folder is not None and (folder / f"{i}.npz").exists():  # finished before the interruption
-            solutions.append(_io.load(folder / f"{i}.npz"))
+            solutions.append(_solution.load(folder / f"{i}.npz"))
             wall.append(0.0)
             continue
         done = [0]
@@ -595,7 +596,7 @@ def versions():
     import numba
     import scipy
 
-    from . import __version__
+    from .._version import __version__
 
     return {"geomint": __version__, "python": platform.python_version(), "numpy": np.__version__,
             "scipy": scipy.__version__, "numba": numba.__version__}
@@ -654,7 +655,7 @@ class _Checker:
         return value
 
     def formula_parameters(self, value):
-        from . import expressions as _expressions
+        from ..model import expressions as _expressions
 
         try:
             return _expressions.check_parameters(value, "system.parameters")
@@ -668,7 +669,7 @@ class _Checker:
         for key in ("H", "S"):
             if key not in value:
                 self.fail(f"system.{key}", "missing; a system as formulas needs H, S and one of J, P.")
-        from . import expressions as _expressions
+        from ..model import expressions as _expressions
 
         try:
             _expressions.parse_system(value["H"], value["S"], value.get("J"), value.get("P"), parameters, "system.")
@@ -792,7 +793,7 @@ def _with_options(source, method, options):
 
     A key that is no option of a known method is refused here, naming the nearest key (a misspelt
     ``duration`` would otherwise be reported as missing)."""
-    from .method_data import options_of, short_names
+    from ..integrators.data import options_of, short_names
 
     cls = short_names().get(method) if isinstance(method, str) else None
     for option in options:

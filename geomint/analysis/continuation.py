@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import analysis as _analysis
+from .. import analysis as _analysis
 
 _BISECTIONS = 48
 

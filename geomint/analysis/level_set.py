@@ -161,21 +161,3 @@ def section(system, H0, center, plane, n_theta=181, n_phi=361):
         U = np.stack([np.sin(t) * np.cos(f), np.sin(t) * np.sin(f), np.cos(t)], axis=1)
         curves.append(on_rays(system, H0, U, center))
     return curves
-
-
-def equilibria(system, H0, center, n=4000):
-    """``[(x, verdict), ...]`` on ``H = H0``: the points of ``geomint.analysis.equilibria`` with their verdicts.
-
-    A curve of equilibria contributes each of its traced points.  Kept for
-    callers of the earlier interface; new code uses ``geomint.analysis``, which
-    also says why each point is an equilibrium.
-    """
-    from . import analysis  # analysis builds on this module
-
-    pairs = []
-    for found in analysis.equilibria(system, H0, "xi", center, n):
-        if isinstance(found, analysis.EquilibriumCurve):
-            pairs.extend(zip(found.points, found.verdicts.tolist()))
-        else:
-            pairs.append((found.x, found.verdict))
-    return pairs

@@ -14,7 +14,7 @@ a key for every line; up to 20 distinct styles from ``style``):
 - ``casimir(solutions)``: ``S(t)`` with every rise beyond round-off marked.
 - ``drift(solutions)``: windowed maxima of the energy error with the fitted growth law
   (``drift_windows`` for maxima already taken, e.g. of runs too long to keep).
-- ``work_precision(curves)``: global error against cost (``geomint.diagnostics.work_precision``).
+- ``work_precision(curves)``: global error against cost (``geomint.studies.work_precision``).
 
 Each returns the axis it drew on (a new figure's when ``ax`` is None).
 ``draw(result, directory)`` writes a scene's figures (``geomint.scene.FIGURES``)
@@ -27,9 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import diagnostics as _diagnostics
-from . import level_set as _level_set
-from .io import atomic
+from .. import analysis as _analysis
+from .. import diagnostics as _diagnostics
+from ..analysis import level_set as _level_set
+from .._files import atomic
 
 _EQUILIBRIUM_STYLE = {
     "stable": dict(marker="o", s=46, facecolor="black", edgecolor="black"),
@@ -273,7 +274,7 @@ def _draw_equilibria(ax, system, H0, center, eye, box):
 
     Returns how many isolated equilibria lie behind the surface (left out).
     """
-    found = [(x, kind) for x, kind in _level_set.equilibria(system, H0, center) if _inside(x, box)]
+    found = [(x, kind) for x, kind in _analysis.equilibrium_points(system, H0, center) if _inside(x, box)]
     behind = 0
     for kind in ("stable", "unstable", "neutral"):
         points = np.array([x for x, k in found if k == kind]).reshape(-1, 3)
@@ -419,7 +420,7 @@ def _law_text(p, law):
 
 
 def work_precision(curves, ax=None, *, cost="wall", legend=True, error="global error |x(T) - x_ref(T)|"):
-    """Error against cost for ``geomint.diagnostics.Curve`` objects, one line and key each.
+    """Error against cost for ``geomint.studies.Curve`` objects, one line and key each.
 
     ``cost`` is ``"wall"`` (median seconds) or ``"nfev"`` (field evaluations);
     ``error`` labels the vertical axis (what the curves' errors measure).
@@ -581,7 +582,7 @@ def continuation_figure(results, path=None, columns=3):
     Examples
     --------
     >>> import geomint
-    >>> from geomint.continuation import continuation
+    >>> from geomint.analysis.continuation import continuation
     >>> body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5)
     >>> fig = continuation_figure([continuation(body, 0.75, [0.0, 0.1, 1.0, 4.0], n=400)])
     >>> len(fig.axes[0].get_lines())   # 6 equilibria x 2 eigenvalues, zero line, 4 focus-node changes

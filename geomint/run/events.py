@@ -26,7 +26,7 @@ import math
 import numbers
 
 import numpy as np
-from ._user_errors import UserFunctionError
+from .._user_errors import UserFunctionError
 
 
 def relaxed(system, tol, *, terminal=True):

@@ -19,17 +19,14 @@ allow_pickle=False)`` reads it):
 (True, True)
 """
 
-import contextlib
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from .integrators import Integrator
-from .method_data import MethodDataError, method_from_data, method_to_data
-from .solution import Solution
+from ..integrators import Integrator
+from ..integrators.data import MethodDataError, method_from_data, method_to_data
+from .._files import atomic
 
 FORMAT = "geomint-solution"
 FORMAT_VERSION = 1
@@ -39,7 +36,7 @@ _SCALARS = ("success", "status", "message", "failed_step", "n_steps", "n_newton"
 
 def metadata(solution, system=None):
     """The JSON-ready description of ``solution`` (and of ``system``, if given) that ``save`` writes."""
-    from . import __version__
+    from .._version import __version__
 
     method = solution.method
     return {"format": FORMAT, "format_version": FORMAT_VERSION, "geomint": __version__,
@@ -62,7 +59,7 @@ def save(solution, path, system=None):
 
     ``system`` (optional) is recorded in the metadata: name, parameters, eps.
     """
-    if not isinstance(solution, Solution):
+    if not all(hasattr(solution, key) for key in (*_ARRAYS, *_SCALARS, "method")):
         raise TypeError(f"`solution` must be a geomint.Solution; got {type(solution).__name__}.")
     path = Path(path)
     path = path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
@@ -72,35 +69,15 @@ def save(solution, path, system=None):
     return path
 
 
-_UMASK = os.umask(0o022)
-os.umask(_UMASK)
-
-
-@contextlib.contextmanager
-def atomic(path):
-    """A temporary path beside ``path`` (same suffix), renamed onto ``path`` when the block ends normally and
-    removed when it raises: a failed or interrupted write never leaves a partial file under the final name."""
-    path = Path(path)
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=f".part{path.suffix}")
-    os.close(handle)
-    os.chmod(temporary, 0o666 & ~_UMASK)  # the mode a plain open() would give, not mkstemp's 0600
-    try:
-        yield Path(temporary)
-        os.replace(temporary, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(temporary)
-        raise
-
-
 def read_metadata(path):
     """The metadata dict of a file written by ``save`` (``ValueError`` naming the path if it is not one)."""
     with np.load(path, allow_pickle=False) as data:
         return _metadata(path, data)
 
 
-def load(path):
-    """The ``Solution`` saved at ``path``; its ``method`` is rebuilt from its data form.
+def read(path):
+    """The fields of the ``Solution`` saved at ``path``, as keyword arguments (``geomint.load`` builds it);
+    its ``method`` is rebuilt from its data form.
 
     A method that cannot be rebuilt (saved by a newer geomint, or not an
     integrator, e.g. a scipy label) comes back as its data form.
@@ -112,7 +89,7 @@ def load(path):
         method = method_from_data(meta["method"]) if isinstance(meta["method"], dict) else meta["method"]
     except MethodDataError:
         method = meta["method"]
-    return Solution(**arrays, **{key: meta[key] for key in _SCALARS}, method=method)
+    return {**arrays, **{key: meta[key] for key in _SCALARS}, "method": method}
 
 
 def to_xarray(solution, system=None):

@@ -13,16 +13,16 @@ from pathlib import Path
 
 import numpy as np
 
-from ._kernels import adaptive as _adaptive
-from ._kernels import driver as _driver
-from . import _user_errors, _validate
-from .dense import Hermite
+from .._kernels import adaptive as _adaptive
+from .._kernels import driver as _driver
+from .. import _user_errors, _validate
+from ..results.dense import Hermite
 from .events import Events
-from .io import atomic
-from ._kernels import layout as _layout
-from .integrators import DormandPrince853, Gonzalez, Projected, resolve
-from .solution import AccuracyWarning, Solution
-from .system import MetriplecticSystem
+from .._files import atomic
+from .._kernels import layout as _layout
+from ..integrators import DormandPrince853, Gonzalez, Projected, resolve
+from ..results.solution import AccuracyWarning, Solution
+from ..model.system import MetriplecticSystem
 
 _FAILURES = {
     _layout.NEWTON_FAILED: "the Newton iteration did not converge",

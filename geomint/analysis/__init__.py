@@ -787,3 +787,15 @@ def _points(X):
     if X.ndim != 2 or X.shape[1] != 3:
         raise ValueError(f"`x` must have shape (3,) or (n, 3); got shape {X.shape}.")
     return X
+
+
+def equilibrium_points(system, H0, center, n=4000):
+    """``[(x, verdict), ...]`` on ``H = H0``: the points of ``equilibria`` with their verdicts, a curve of
+    equilibria contributing each of its traced points (what a figure marks)."""
+    pairs = []
+    for found in equilibria(system, H0, "xi", center, n):
+        if isinstance(found, EquilibriumCurve):
+            pairs.extend(zip(found.points, found.verdicts.tolist()))
+        else:
+            pairs.append((found.x, found.verdict))
+    return pairs

@@ -15,8 +15,8 @@ A short name alone stands for the method with its defaults:
 
 import dataclasses
 
-from ._validate import did_you_mean
-from .integrators import INTEGRATORS, Integrator
+from .._validate import did_you_mean
+from . import INTEGRATORS, Integrator
 
 
 class MethodDataError(ValueError):

@@ -4,6 +4,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import io as _io
+
+#: machine epsilon of float64
+EPS = float(np.finfo(np.float64).eps)
+
 
 class AccuracyWarning(UserWarning):
     """A run that completed but cannot be trusted to the accuracy asked for: a fixed step far beyond the
@@ -115,19 +120,31 @@ class Solution:
 
     def save(self, path, system=None):
         """Write to ``path`` (.npz with JSON metadata; ``system`` recorded if given): ``geomint.io.save``."""
-        from . import io
-
-        return io.save(self, path, system)
+        return _io.save(self, path, system)
 
     def to_xarray(self, system=None):
         """An ``xarray.Dataset`` of this solution (optional dependency): ``geomint.io.to_xarray``."""
-        from . import io
-
-        return io.to_xarray(self, system)
+        return _io.to_xarray(self, system)
 
     def count_S_rises(self, ulps=16):
         """Saved consecutive pairs where S rose by more than ``ulps`` ulps in forward time
         (``geomint.diagnostics.S_rises``)."""
-        from .diagnostics import S_rises
-
         return len(S_rises(self, ulps))
+
+
+def S_rises(sol, ulps=16):
+    """Indices ``k`` of the saved pairs where S rose in forward time: ``d (S_{k+1} - S_k) > ulps * EPS *
+    max(|S_k|, |S_{k+1}|)``, ``d`` the sign of ``t_{k+1} - t_k`` (a backward run sees S rise as t falls).
+
+    ``len(S_rises(sol))`` is ``sol.count_S_rises(ulps)``; the indices say where
+    (``sol.t[k + 1]``), for plots.
+    """
+    S = sol.S
+    tol = ulps * EPS * np.maximum(np.abs(S[:-1]), np.abs(S[1:]))
+    return np.flatnonzero(np.sign(np.diff(sol.t)) * np.diff(S) > tol)
+
+
+def load(path):
+    """The ``Solution`` saved at ``path`` by ``Solution.save`` (``geomint.results.io``); its ``method`` is
+    rebuilt from its data form, or kept as that data where it cannot be (a newer geomint, a scipy label)."""
+    return Solution(**_io.read(path))

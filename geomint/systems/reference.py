@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from ._kernels import exact_flows as _exact
+from .._kernels import exact_flows as _exact
 
 
 def rigid_body_exact(a, b, c, m0, t):

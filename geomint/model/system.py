@@ -18,9 +18,9 @@ import numpy as np
 from numba.core.dispatcher import Dispatcher
 from numba.core.types.function_type import CompileResultWAP
 
-from . import _user_errors, _validate
-from ._kernels import field as _field
-from ._kernels.layout import Model
+from .. import _user_errors, _validate
+from .._kernels import field as _field
+from .._kernels.layout import Model
 
 _VECTOR = numba.types.float64[::1]
 _SIGNATURE = (_VECTOR, _VECTOR)

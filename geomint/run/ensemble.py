@@ -28,17 +28,17 @@ from dataclasses import dataclass, replace
 import numba
 import numpy as np
 
-from . import _user_errors, _validate
-from ._kernels import batch as _batch
-from ._kernels import driver as _driver
-from ._kernels import layout as _layout
-from .solution import AccuracyWarning, Solution
+from .. import _user_errors, _validate
+from .._kernels import batch as _batch
+from .._kernels import driver as _driver
+from .._kernels import layout as _layout
+from ..results.solution import AccuracyWarning, Solution
 from .solve import (
     RTOL, _check_memory, _check_save_every, _check_span, _check_t_eval, _interrupts, _message, _raised_message,
     check_direction, check_step_or_control, choose_method, marching, step_caveat, step_count, step_ratios,
     tolerance_caveat,
 )
-from .system import MetriplecticSystem
+from ..model.system import MetriplecticSystem
 
 #: trajectories per call of the batch kernel (between calls: progress, Ctrl-C, Dask tasks)
 CHUNK = 256

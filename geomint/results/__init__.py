@@ -1,0 +1,1 @@
+"""What a run gives back: ``Solution``, its dense output, saving and loading."""

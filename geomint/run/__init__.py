@@ -1,0 +1,1 @@
+"""How a run is driven (Python side): ``solve``, events, ensembles and sweeps."""
