@@ -59,7 +59,7 @@ def _exact(method):
 
 
 def ratios(rows):
-    """The issue's comparisons, read off the table (same run)."""
+    """The comparisons the page makes, read off the table (same run)."""
     wall = {row[0]: row[-1] for row in rows}
     exact_adaptive = {label: wall[label] for label, method in ADAPTIVE.items() if _exact(method) and label in wall}
     if not exact_adaptive:

@@ -17,7 +17,7 @@ LONG_STEPS = {True: 10**6, False: 10**8}
 
 
 def targets_section(ratios, overhead, fastest, long, penalty, quick):
-    """The issue's targets, reported (never asserted): measured value, aim, verdict."""
+    """The targets the project holds the engine to, reported (never asserted): measured value, aim, verdict."""
     rows = []
     for method in geomint_methods():
         if method.structure_preserving and method.single_step and method.label in ratios.get("relaxing_rigid_body", {}):

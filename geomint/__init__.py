@@ -37,6 +37,9 @@ from .systems import reference
 for _name, _module in (("continuation", continuation), ("level_set", level_set), ("events", events),
                        ("reference", reference)):
     _sys.modules[f"{__name__}.{_name}"] = _module
+# runs about runs moved from diagnostics to studies; reachable where they were
+for _name in ("Curve", "measured_order", "reference_solution", "work_precision"):
+    setattr(diagnostics, _name, getattr(studies, _name))
 del _name, _module
 
 __all__ = [

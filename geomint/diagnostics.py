@@ -15,19 +15,10 @@ scipy runs are measured the same way.
   trajectory, a median wall time.
 
 Runs about runs (``reference_solution``, ``measured_order``, ``work_precision``, ``Curve``) are in
-``geomint.studies``: they call ``solve``, which this module, a measure of results, does not.
+``geomint.studies``: they call ``solve``, which this module, a measure of results, does not
+(``geomint`` keeps them reachable here under their earlier names).
 """
 
-#: names that moved to ``geomint.studies``; reached here as before (``__getattr__``)
-MOVED_TO_STUDIES = ("Curve", "measured_order", "reference_solution", "work_precision")
-
-
-def __getattr__(name):
-    if name in MOVED_TO_STUDIES:
-        from . import studies  # a run layer above this one: only for the names that moved there
-
-        return getattr(studies, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 import math
 import statistics
