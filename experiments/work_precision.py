@@ -154,7 +154,7 @@ def fastest_structure_preserving(curves, target=1e-8):
 
 def plot(problem, curves, uncertainty, axes):
     for ax, cost in zip(axes, ("wall", "nfev")):
-        plotting.work_precision(curves, ax, cost=cost, legend=False, error=ERROR_LABEL)
+        plotting.plot_work_precision(curves, ax, cost=cost, legend=False, error=ERROR_LABEL)
         ax.axhline(max(uncertainty, 1e-16), color="grey", lw=0.8, ls=":")
         ax.set_title(f"{problem.title} (solid: exact H and monotone S)", fontsize=9)
 

@@ -23,7 +23,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import analysis as _analysis
+from . import equilibria as _equilibria
+from . import stability as _stability
+from . import zero_sets as _zero_sets
 
 _BISECTIONS = 48
 
@@ -136,10 +138,10 @@ def continuation(system, H0, eps_values, center=None, n=2000):
     """
     eps_values = _check_eps_values(eps_values)
     top = system.with_effects(eps=float(eps_values[-1]))
-    branches = [_follow_equilibrium(system, H0, e, eps_values) if isinstance(e, _analysis.Equilibrium)
+    branches = [_follow_equilibrium(system, H0, e, eps_values) if isinstance(e, _equilibria.Equilibrium)
                 else _follow_curve(system, H0, e, eps_values)
-                for e in _analysis.equilibria(top, H0, center=center, n=n)]
-    branches += [_follow_cycle(system, c, eps_values) for c in _analysis.rest_cycles(top, H0, center=center, n=n)
+                for e in _equilibria.equilibria(top, H0, center=center, n=n)]
+    branches += [_follow_cycle(system, c, eps_values) for c in _equilibria.rest_cycles(top, H0, center=center, n=n)
                  if c.periodic]
     return Continuation(system.name, float(H0), branches)
 
@@ -147,10 +149,10 @@ def continuation(system, H0, eps_values, center=None, n=2000):
 def _state_of_point(system, H0, x, eps):
     """``(x, sorted eigenvalues, (verdict, kind), Jacobian norm)`` of the equilibrium near ``x`` at ``eps``."""
     s = system.with_effects(eps=eps)
-    x = _analysis.refine(s, x, H0)
-    jacobian, lam = _analysis.linearise(s, x)
+    x = _zero_sets.refine(s, x, H0)
+    jacobian, lam = _stability.linearise(s, x)
     scale = float(np.linalg.norm(jacobian)) + 1e-300
-    return x, np.sort_complex(lam), (_analysis.verdict(lam, scale), _analysis.eigenvalue_kind(lam, scale)), scale
+    return x, np.sort_complex(lam), (_stability.verdict(lam, scale), _stability.eigenvalue_kind(lam, scale)), scale
 
 
 def _follow_equilibrium(system, H0, equilibrium, eps_values):
@@ -165,7 +167,7 @@ def _follow_curve(system, H0, curve, eps_values):
     def state(eps, x):
         x, lam, _, scale = _state_of_point(system, H0, x, eps)
         normal = lam[np.argmax(np.abs(lam))].real
-        return x, np.array([0.0, normal], dtype=complex), (_analysis.verdict([normal], scale), "curve")
+        return x, np.array([0.0, normal], dtype=complex), (_stability.verdict([normal], scale), "curve")
 
     label = f"curve of equilibria ({', '.join(curve.reasons) or 'P = 0'}) through {_point(curve.x)}"
     return _follow("curve", curve.x, label, eps_values, state)
@@ -173,7 +175,7 @@ def _follow_curve(system, H0, curve, eps_values):
 
 def _follow_cycle(system, cycle, eps_values):
     def state(eps, x):
-        c = _analysis.classify_cycle(system.with_effects(eps=eps), cycle.points, cycle.closed)
+        c = _equilibria.classify_cycle(system.with_effects(eps=eps), cycle.points, cycle.closed)
         return x, np.array([0.0, c.exponent], dtype=complex), (c.verdict, "cycle")
 
     return _follow("cycle", cycle.points[0], f"dS = 0 cycle through {_point(cycle.points[0])}", eps_values, state)

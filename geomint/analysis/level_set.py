@@ -1,4 +1,4 @@
-"""Points on and meshes of a level set ``{H = H0}`` of the energy (equilibria: ``geomint.analysis``).
+"""[R3] Points on, meshes and plane sections of a level set ``{H = H0}`` of the energy in R^3.
 
 The level set is assumed star-shaped about a centre ``c`` with ``H(c) < H0``
 (every catalogue system: ellipsoids and spheres about the minimiser of H).  A
@@ -31,7 +31,7 @@ def energy_minimiser(system):
     Where H has no minimiser (unbounded below) the search ends wherever BFGS gave up, far out; the level
     set is then not star-shaped about it, and callers that mesh by rays fall back or refuse.
     """
-    from scipy import optimize  # imported on use: it costs a new process ~0.3 s
+    from scipy import optimize  # imported on use: a new process need not load it
 
     # H unbounded below (x^2/2 + z): BFGS runs off towards infinity and squares huge steps on the way; that
     # overflow is the expected outcome of the search, not the user's doing, so numpy is not to warn about it

@@ -1,0 +1,39 @@
+"""What the analysis modules share: the fields by name, and the checks of their arguments."""
+
+import numpy as np
+
+FIELDS = ("xi", "xi_P", "xi_g")
+ZERO = 1e-9  # a residual at most this fraction of its scale counts as zero
+
+
+def field_of(system, field):
+    """``X -> field(X)`` at many points, shape ``(n, 3)``, for ``field`` in ``FIELDS``."""
+    method = {"xi": system.xi, "xi_P": system.xi_P, "xi_g": system.xi_g}[field]
+    return lambda X: np.atleast_2d(method(X))
+
+
+def check_field(field):
+    if field not in FIELDS:
+        raise ValueError(f"`field` must be one of {', '.join(FIELDS)}; got {field!r}.")
+    return field
+
+
+def check_level(H0):
+    try:
+        value = float(H0)
+    except (TypeError, ValueError):
+        raise TypeError(f"`H0` must be a real number; got {H0!r}.") from None
+    if not np.isfinite(value):
+        raise ValueError(f"`H0` must be finite; got {H0!r}.")
+    return value
+
+
+def as_points(X):
+    """``X`` as a float64 array of shape ``(n, 3)`` (one point ``(3,)`` becomes ``(1, 3)``)."""
+    try:
+        X = np.atleast_2d(np.asarray(X, dtype=np.float64))
+    except (TypeError, ValueError):
+        raise TypeError(f"`x` must be an array of real numbers of shape (3,) or (n, 3); got {X!r}.") from None
+    if X.ndim != 2 or X.shape[1] != 3:
+        raise ValueError(f"`x` must have shape (3,) or (n, 3); got shape {X.shape}.")
+    return X

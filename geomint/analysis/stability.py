@@ -1,0 +1,206 @@
+"""Linear stability on the level set: the tangent-plane Jacobian, its verdict and kind; its factorisation [R3].
+
+At an equilibrium the level set ``H = H0`` is invariant, so stability within
+it is decided by ``J_T = T Df T^T``, the Jacobian of the field restricted to
+the tangent plane ``grad H^perp`` (``T`` an orthonormal basis of it).
+``factorise`` writes ``J_T`` at a regular equilibrium with ``grad S || grad H``
+through the cross-product matrix ``[grad H x]``: it holds in R^3 only.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._common import as_points, check_field, field_of
+
+
+def tangent_basis(system, x):
+    """An orthonormal basis ``(2, 3)`` of the tangent plane ``grad H(x)^perp`` of the level set.
+
+    Raises ``ValueError`` at a critical point of H (no tangent plane).
+    """
+    return _tangent_bases(system, as_points(x))[0]
+
+
+def _tangent_bases(system, X):
+    normal = np.atleast_2d(system.grad_H(X))
+    size = np.linalg.norm(normal, axis=1)
+    if np.any(size == 0.0):
+        x = X[np.argmin(size)]
+        raise ValueError(f"`x` must not be a critical point of H (grad H = 0 there); got {x.tolist()}.")
+    return np.linalg.svd((normal / size[:, None])[:, None, :])[2][:, 1:]
+
+
+def linearise(system, x, field="xi", step=None):
+    """The Jacobian of ``field`` restricted to the level set through ``x``, and its eigenvalues.
+
+        J_T = T Df(x) T^T,   T = tangent_basis(system, x)   (2 x 2),
+
+    with ``Df`` by central differences of step ``step`` (default
+    ``1e-6 (1 + |x|)``).  At an equilibrium the level set is invariant, so the
+    eigenvalues of ``J_T`` decide stability within it (the third eigenvalue of
+    ``Df``, across the level set, is that of the conserved H and carries no
+    information).
+
+    Parameters
+    ----------
+    system : MetriplecticSystem
+    x : array_like, shape (3,) or (m, 3)
+    field : {"xi", "xi_P", "xi_g"}
+
+    Returns
+    -------
+    jacobian : ndarray, shape (2, 2) (or (m, 2, 2))
+    eigenvalues : ndarray, shape (2,) (or (m, 2)), complex
+
+    Examples
+    --------
+    >>> import numpy as np, geomint
+    >>> body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.0)
+    >>> _, lam = linearise(body, [0.0, 0.0, 1.0])
+    >>> np.round(np.sort_complex(lam), 6)   # a centre: +-i sqrt((c - a)(c - b)) z0
+    array([0.-0.707107j, 0.+0.707107j])
+    """
+    X = as_points(x)
+    F = field_of(system, check_field(field))
+    steps = 1e-6 * (1.0 + np.linalg.norm(X, axis=1)) if step is None else np.full(len(X), float(step))
+    shifts = np.concatenate([X + steps[:, None] * e for e in np.eye(3)] + [X - steps[:, None] * e for e in np.eye(3)])
+    values = F(shifts).reshape(6, len(X), 3)
+    Df = np.stack([(values[i] - values[i + 3]) / (2.0 * steps[:, None]) for i in range(3)], axis=2)
+    T = _tangent_bases(system, X)
+    jacobian = T @ Df @ np.transpose(T, (0, 2, 1))
+    eigenvalues = np.linalg.eigvals(jacobian)
+    return (jacobian[0], eigenvalues[0]) if np.ndim(x) == 1 else (jacobian, eigenvalues)
+
+@dataclass(frozen=True)
+class Factorisation:
+    """The tangent-plane Jacobian of ``xi`` at a regular equilibrium with ``grad S = lam grad H != 0``.
+
+    With ``J = mu grad S`` (S is a Casimir) and ``L = Hess S - lam Hess H``
+    (the Hessian of the Lagrangian of S restricted to ``H = H0``), linearising
+    ``xi_P = mu grad H x grad S`` and ``xi_g = grad H x (grad H x grad S)`` where
+    ``grad H x grad S = 0`` gives, in an orthonormal tangent basis ``T``,
+
+        J_T(eps) = (mu C_T - eps |grad H|^2 I) L_T,   C_T = T [grad H x] T^T,   L_T = T L T^T.
+
+    ``C_T`` is ``|grad H|`` times a rotation by a right angle, so
+    ``det J_T = |grad H|^2 (mu^2 + eps^2 |grad H|^2) det L_T`` and
+    ``tr J_T = -eps |grad H|^2 tr L_T``: for every ``eps > 0`` the verdict is that
+    of the critical point of ``S`` on the level set (minimum: stable; maximum:
+    unstable; saddle: saddle), whatever eps — no eigenvalue crosses the imaginary
+    axis at ``eps > 0``.  Where ``det L_T > 0`` the foci become nodes at
+
+        eps* = 2 |mu| sqrt(det L_T) / (|grad H| |l1 - l2|),   l1, l2 the eigenvalues of L_T.
+
+    Attributes
+    ----------
+    lam, mu : float
+    grad_H_norm : float
+    hessian : ndarray, shape (2, 2)
+        ``L_T`` (symmetric).
+    rotation : ndarray, shape (2, 2)
+        ``C_T`` (skew).
+    """
+
+    lam: float
+    mu: float
+    grad_H_norm: float
+    hessian: np.ndarray
+    rotation: np.ndarray
+
+    def jacobian(self, eps):
+        """``J_T(eps)``, shape (2, 2)."""
+        return (self.mu * self.rotation - eps * self.grad_H_norm ** 2 * np.eye(2)) @ self.hessian
+
+    @property
+    def constrained_type(self):
+        """``"minimum"``, ``"maximum"``, ``"saddle"`` or ``"degenerate"``: the critical point of S on ``H = H0``."""
+        low, high = np.linalg.eigvalsh(self.hessian)
+        tol = 1e-7 * (abs(low) + abs(high))
+        if low > tol:
+            return "minimum"
+        if high < -tol:
+            return "maximum"
+        return "saddle" if low < -tol and high > tol else "degenerate"
+
+    @property
+    def node_eps(self):
+        """``eps*`` where foci become nodes (``nan`` unless ``S`` has a strict extremum with ``l1 != l2``)."""
+        l1, l2 = np.linalg.eigvalsh(self.hessian)
+        if l1 * l2 <= 0.0 or l1 == l2:
+            return float("nan")
+        return float(2.0 * abs(self.mu) * np.sqrt(l1 * l2) / (self.grad_H_norm * abs(l1 - l2)))
+
+
+def factorise(system, x, step=None):
+    """The ``Factorisation`` of the tangent-plane Jacobian at a regular equilibrium ``x`` with ``grad S || grad H``.
+
+    [R3]: the cross-product matrix ``[grad H x]`` exists in R^3 only.  Hessians
+    by central differences of the gradients (step ``1e-6 (1 + |x|)`` by default).  Raises ``ValueError`` where ``grad H``, ``grad S`` or ``J``
+    vanishes (the factorisation needs all three).
+
+    Examples
+    --------
+    >>> import numpy as np, geomint
+    >>> body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=2.0)
+    >>> f = factorise(body, [0.0, 0.0, 1.0])
+    >>> f.constrained_type, round(f.node_eps, 5)      # S = |m|^2/2 has its minimum on H = 0.75 at the pole
+    ('minimum', 1.88562)
+    >>> bool(np.allclose(f.jacobian(2.0), linearise(body, [0.0, 0.0, 1.0])[0], atol=1e-8))
+    True
+    """
+    x = as_points(x)[0]
+    gh, gs, j = (np.asarray(f(x), dtype=float) for f in (system.grad_H, system.grad_S, system.J))
+    for name, v in (("grad H", gh), ("grad S", gs), ("J", j)):
+        if not np.linalg.norm(v) > 0.0:
+            raise ValueError(f"`x` must be a regular point with grad H != 0 and grad S != 0; {name} = 0 at {x.tolist()}.")
+    step = 1e-6 * (1.0 + float(np.linalg.norm(x))) if step is None else float(step)
+    shifts = np.concatenate([x + step * np.eye(3), x - step * np.eye(3)])
+    hess_H, hess_S = (((v[:3] - v[3:]) / (2.0 * step)).T for v in (np.atleast_2d(system.grad_H(shifts)),
+                                                                    np.atleast_2d(system.grad_S(shifts))))
+    lam, mu = float(gs @ gh / (gh @ gh)), float(j @ gs / (gs @ gs))
+    T = tangent_basis(system, x)
+    cross = np.array([[0.0, -gh[2], gh[1]], [gh[2], 0.0, -gh[0]], [-gh[1], gh[0], 0.0]])
+    L = hess_S - lam * hess_H
+    return Factorisation(lam, mu, float(np.linalg.norm(gh)), T @ (0.5 * (L + L.T)) @ T.T, T @ cross @ T.T)
+
+
+def verdict(eigenvalues, scale, rtol=1e-7):
+    """``"stable"`` if every real part is below ``-rtol scale``, ``"unstable"`` if one is above, else ``"neutral"``.
+
+    ``scale`` is the size of the Jacobian (e.g. its norm): real parts within
+    ``rtol scale`` of zero are not resolved by the finite-difference
+    linearisation, and there the linearisation does not decide (centres, the
+    zero eigenvalue along a curve of equilibria).
+
+    Examples
+    --------
+    >>> verdict([-1.0 + 2.0j, -1.0 - 2.0j], 3.0), verdict([1e-12j, -1e-12j], 1.0)
+    ('stable', 'neutral')
+    """
+    real = np.real(np.asarray(eigenvalues))
+    tol = rtol * float(scale)
+    if np.all(real < -tol):
+        return "stable"
+    return "unstable" if np.any(real > tol) else "neutral"
+
+
+def eigenvalue_kind(eigenvalues, scale, rtol=1e-7):
+    """The type of a 2 x 2 linearisation: ``"node"``, ``"focus"``, ``"saddle"``, ``"centre"`` or ``"degenerate"``.
+
+    Real parts and imaginary parts within ``rtol scale`` of zero count as zero;
+    ``"degenerate"``: an eigenvalue is zero.
+
+    Examples
+    --------
+    >>> eigenvalue_kind([-1 + 1j, -1 - 1j], 1.0), eigenvalue_kind([-1.0, 2.0], 1.0)
+    ('focus', 'saddle')
+    """
+    lam = np.asarray(eigenvalues, dtype=complex)
+    tol = rtol * float(scale)
+    if np.any(np.abs(lam) <= tol):
+        return "degenerate"
+    if np.all(np.abs(lam.imag) <= tol):
+        return "saddle" if lam.real.min() < 0 < lam.real.max() else "node"
+    return "centre" if np.all(np.abs(lam.real) <= tol) else "focus"
+

@@ -1,0 +1,134 @@
+"""The user's numba functions: their types checked, their shapes probed, handed to kernels as first-class functions.
+
+Every user function has the signature ``(x, params)`` with ``x`` and
+``params`` contiguous float64 arrays.  A function is compiled for that
+signature once, here; its return type decides the compiled kernel variant
+(3-tuples or arrays, an axial vector ``J`` or a matrix ``P``).  Under
+``NUMBA_DISABLE_JIT=1`` plain Python functions are taken as they are.
+"""
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numba
+import numpy as np
+from numba.core.dispatcher import Dispatcher
+from numba.core.types.function_type import CompileResultWAP
+
+from .checks import SAMPLES
+
+_VECTOR = numba.types.float64[::1]
+_SIGNATURE = (_VECTOR, _VECTOR)
+_SCALAR_TYPES = (numba.types.float64,)
+_VECTOR_FORMS = {
+    numba.types.UniTuple(numba.types.float64, 3): "tuple",
+    numba.types.float64[::1]: "array",
+}
+_MATRIX_TYPE = numba.types.float64[:, ::1]
+#: per user function: what it returns and the body of an example (the relaxing rigid body's)
+_EXAMPLES = {
+    "H": ("a float", "0.5 * (params[0] * x[0]**2 + params[1] * x[1]**2 + params[2] * x[2]**2)"),
+    "grad_H": ("a 3-tuple of floats (fastest) or a float64 array", "(params[0] * x[0], params[1] * x[1], params[2] * x[2])"),
+    "S": ("a float", "0.5 * (x[0]**2 + x[1]**2 + x[2]**2)"),
+    "grad_S": ("a 3-tuple of floats (fastest) or a float64 array", "(x[0], x[1], x[2])"),
+    "J": ("a 3-tuple of floats (fastest) or a float64 array", "(x[0], x[1], x[2])"),
+    "P": ("a (3, 3) float64 array", "np.array([[0.0, -x[2], x[1]], [x[2], 0.0, -x[0]], [-x[1], x[0], 0.0]])"),
+}
+
+
+def _how_to_jit(name):
+    """How to write the user function ``name`` (``H``, ``grad_H``, ``S``, ``grad_S``, ``J``, ``P``) for numba,
+    with an example of that very function."""
+    returns, body = _EXAMPLES.get(name, _EXAMPLES["grad_H"])
+    return (f"Write it as a numba function of (x, params), e.g.\n    @numba.njit\n    def {name}(x, params):\n"
+            f"        return {body}\nwith x and params float64 arrays; `{name}` returns {returns}.")
+
+
+@dataclass(frozen=True)
+class ModelFunctions:
+    """The jitted user functions of a system, all of signature ``(x, params)``.
+
+    ``poisson`` is ``J`` (axial vector) or ``P`` (3x3 matrix) as given.
+    ``vector_form`` is ``"tuple"`` or ``"array"`` (``"python"`` under
+    ``NUMBA_DISABLE_JIT=1``); ``poisson_form`` is
+    ``"axial"`` or ``"matrix"``.
+    """
+
+    H: Callable
+    grad_H: Callable
+    S: Callable
+    grad_S: Callable
+    poisson: Callable
+    vector_form: str
+    poisson_form: str
+
+
+def _compiled_return_type(name, fn):
+    if numba.config.DISABLE_JIT:
+        if not callable(fn):
+            raise TypeError(f"`{name}` must be a function of (x, params); got {type(fn).__name__}.")
+        return None
+    if not isinstance(fn, Dispatcher):
+        raise TypeError(f"`{name}` must be a numba-jitted function; got {fn!r}. {_how_to_jit(name)}")
+    try:
+        fn.compile(_SIGNATURE)
+    except Exception as exc:
+        raise TypeError(
+            f"`{name}` does not compile for (x, params) with float64 arrays: "
+            f"{type(exc).__name__}: {str(exc).splitlines()[0]}. {_how_to_jit(name)}"
+        ) from exc
+    return fn.overloads[_SIGNATURE].signature.return_type
+
+
+def first_class(fn):
+    """A jitted user function as a first-class function object for the kernels."""
+    if numba.config.DISABLE_JIT:
+        return fn
+    if _SIGNATURE not in fn.overloads:  # a system unpickled in another process (a Dask worker)
+        fn.compile(_SIGNATURE)
+    return CompileResultWAP(fn.overloads[_SIGNATURE])
+
+
+def scalar_function(name, fn):
+    """``fn`` if it compiles for ``(x, params)`` and returns a float64, else a ``TypeError`` saying how to write it."""
+    rtype = _compiled_return_type(name, fn)
+    if rtype is not None and rtype not in _SCALAR_TYPES:
+        raise TypeError(f"`{name}` must return a float64; it returns {rtype}. {_how_to_jit(name)}")
+    return fn
+
+
+def vector_function(name, fn):
+    """The vector form ``fn`` returns (``"tuple"``, ``"array"``, or ``"python"`` without numba), else a ``TypeError``."""
+    rtype = _compiled_return_type(name, fn)
+    if rtype is None:  # NUMBA_DISABLE_JIT=1: plain Python, any sequence of 3 floats will do
+        return "python"
+    if rtype not in _VECTOR_FORMS:
+        raise TypeError(
+            f"`{name}` must return a 3-tuple of floats or a contiguous float64 array; it returns {rtype}. {_how_to_jit(name)}"
+        )
+    return _VECTOR_FORMS[rtype]
+
+
+def matrix_function(name, fn):
+    """A ``TypeError`` unless ``fn`` compiles for ``(x, params)`` and returns a contiguous float64 matrix."""
+    rtype = _compiled_return_type(name, fn)
+    if rtype is not None and rtype != _MATRIX_TYPE:
+        raise TypeError(f"`{name}` must return a (3, 3) contiguous float64 array; it returns {rtype}.")
+
+
+def check_shapes(functions, params):
+    """Array-returning functions give 3 values (P a 3x3 matrix) at a sample point: their type cannot
+    say so, and the kernels would read past a shorter array."""
+    wanted = {"grad_H": (functions.grad_H, (3,)), "grad_S": (functions.grad_S, (3,))}
+    wanted["P" if functions.poisson_form == "matrix" else "J"] = (
+        functions.poisson, (3, 3) if functions.poisson_form == "matrix" else (3,))
+    for name, (fn, shape) in wanted.items():
+        x = SAMPLES[0].copy()
+        try:
+            value = fn(x, params)
+        except Exception:  # noqa: BLE001 - undefined at this point is the structure check's business
+            continue
+        if np.shape(value) != shape:
+            raise ValueError(f"`{name}` must return shape {shape}; at x = {x.tolist()} it returned shape "
+                             f"{np.shape(value)}.")
+
