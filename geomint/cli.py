@@ -30,11 +30,14 @@ from pathlib import Path
 import numpy as np
 
 from ._version import __version__
-from ._kernels.layout import INTERRUPTED as _INTERRUPTED
 from ._files import atomic
 from .integrators import RK4, Gonzalez
 from .integrators.data import method_to_data, options_of, short_names
-from .scene import FIGURES, OBSERVABLES, CheckpointError, SceneError, bundled_scenes, load, run_scene
+from .scene import (
+    FIGURES, OBSERVABLES, CheckpointError, SceneError, bundled_scenes, load_scene, run_scene, runs_together, solve_together,
+)
+from .scene import INTERRUPTED as _INTERRUPTED
+from .scene.toml import to_toml, toml_value
 from .run.solve import MAX_STEPS, solve
 from .systems import CATALOGUE, relaxing_rigid_body
 
@@ -128,7 +131,7 @@ def run(scene_name, out_dir=None, quiet=False, out=None, checkpoint_every=None, 
 
     from . import plotting
 
-    scene = load(scene_name).resolved()
+    scene = load_scene(scene_name).resolved()
     out_dir = Path(out_dir) if out_dir is not None else Path("runs") / scene.name
     data = out_dir / f"{scene.name}.npz"
     summary_path = out_dir / f"{scene.name}.summary.json"
@@ -140,7 +143,7 @@ def run(scene_name, out_dir=None, quiet=False, out=None, checkpoint_every=None, 
               desc=scene.name) as bar:
 
         def prepare(system, method):
-            _prepare(system, method, scene.h, quiet)
+            _prepare(system, method, scene.h, quiet, runs_together(scene, checkpoint))
             bar.unpause()  # the bar's clock (rate, ETA) starts after the compilation
 
         try:
@@ -158,8 +161,9 @@ def run(scene_name, out_dir=None, quiet=False, out=None, checkpoint_every=None, 
         _report(result, summary, [data, summary_path, *figures], out)
     if result.partial:
         resumable = "; resume with --resume" if checkpoint else ""
-        print(f"geomint: interrupted: {len(result.solutions)} of {scene.n_trajectories} trajectories written "
-              f"(the last one cut short), marked \"partial\" in {summary_path}{resumable}", file=sys.stderr)
+        cut = " (the last one cut short)" if result.solutions[-1].status == _INTERRUPTED else ""
+        print(f"geomint: interrupted: {len(result.solutions)} of {scene.n_trajectories} trajectories written{cut}, "
+              f"marked \"partial\" in {summary_path}{resumable}", file=sys.stderr)
         return INTERRUPTED
     if checkpoint:
         shutil.rmtree(folder, ignore_errors=True)
@@ -169,19 +173,23 @@ def run(scene_name, out_dir=None, quiet=False, out=None, checkpoint_every=None, 
     return OK if result.success else FAILED
 
 
-def _prepare(system, method, h, quiet):
+def _prepare(system, method, h, quiet, together=False):
     """Load the compiled kernels a scene's run uses (a first run compiles them) before its progress bar
     counts: a bar that counted the compilation showed a rate and an ETA off by minutes.  One step of the
     method from an arbitrary point, its result discarded: the types of the model and the method, not their
     values, select the compiled code.  Best effort: a point where the system is undefined only leaves the
-    compilation to the run.  When numba has to compile (nothing cached yet), that is said once, as it starts,
-    and the seconds are counted on a progress line (``_CompilationNotice``)."""
+    compilation to the run.  ``together``: the kernel of ``solve_ensemble`` (``run_scene`` runs the scene's
+    trajectories together), else ``solve``'s.  When numba has to compile (nothing cached yet), that is said
+    once, as it starts, and the seconds are counted on a progress line (``_CompilationNotice``)."""
     if not quiet:
         print("geomint: loading the compiled kernels ...", end=" ", file=sys.stderr, flush=True)
     started = time.perf_counter()
     with _CompilationNotice(method.name, None if quiet else sys.stderr, lead="") as notice:
         try:
-            solve(system, np.full(3, 0.5), (0.0, h), h, method=method)
+            if together:
+                solve_together(system, np.full((1, 3), 0.5), (0.0, h), h, method)
+            else:
+                solve(system, np.full(3, 0.5), (0.0, h), h, method=method)
         except (ValueError, TypeError):  # refused at the boundary: the run itself reports the scene's own errors
             pass
     if not quiet and not notice.announced:
@@ -275,7 +283,7 @@ def describe(scene, method):
     """What a scene runs, as a sentence: the system and its parameters, the effects, the method and its options,
     the step and the span (the run's second line; ε is the dissipation parameter)."""
     def assigned(data):
-        return ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {_toml_value(v)}"
+        return ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {toml_value(v)}"
                          for k, v in data.items())
 
     system = scene.system + (" (written as formulas)" if scene.expressions is not None else "")
@@ -294,7 +302,7 @@ def describe(scene, method):
 def show(scene_name, out=None):
     """``geomint show``: the scene fully resolved, as TOML."""
     out = sys.stdout if out is None else out
-    scene = load(scene_name).resolved()
+    scene = load_scene(scene_name).resolved()
     print(f"# {scene.source}, resolved: {scene.n_trajectories} trajectories x {scene.steps_per_trajectory} steps",
           file=out)
     print(to_toml(scene.to_dict()), file=out)
@@ -314,7 +322,7 @@ def list_all(out=None):
     for name, cls in short_names().items():
         print(f"  {name:<24}{_traits(cls())}; {cls.__doc__.strip().splitlines()[0]}", file=out)
         defaults = method_to_data(cls())
-        options = ", ".join(f"{k} = {_toml_value(defaults[k]) if k in defaults else '(unset)'}" for k in options_of(cls))
+        options = ", ".join(f"{k} = {toml_value(defaults[k]) if k in defaults else '(unset)'}" for k in options_of(cls))
         print(f"  {'':<24}options: {options or 'none'}", file=out)
     print("observables ([output] record):", file=out)
     for name, (what, _) in OBSERVABLES.items():
@@ -324,7 +332,7 @@ def list_all(out=None):
         print(f"  {name:<24}{what}", file=out)
     print("bundled scenes (geomint run NAME):", file=out)
     for name, path in bundled_scenes().items():
-        print(f"  {name:<24}{load(str(path)).title}", file=out)
+        print(f"  {name:<24}{load_scene(str(path)).title}", file=out)
     return OK
 
 
@@ -336,26 +344,6 @@ def _traits(method):
     if getattr(method, "flows", ("full",)) == ("hamiltonian",):
         traits.append("Hamiltonian sub-flow only (a splitting's hamiltonian_part, or eps = 0)")
     return ", ".join([order, *traits])
-
-
-def to_toml(data):
-    """TOML text for a scene's ``to_dict()`` (top-level keys, then one table per section)."""
-    top = [f"{key} = {_toml_value(value)}" for key, value in data.items() if not isinstance(value, dict)]
-    tables = [f"\n[{key}]\n" + "\n".join(f"{k} = {_toml_value(v)}" for k, v in value.items())
-              for key, value in data.items() if isinstance(value, dict)]
-    return "\n".join(top) + "\n" + "\n".join(tables)
-
-
-def _toml_value(value):
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return json.dumps(value)
-    if isinstance(value, (int, float)):
-        return repr(value)
-    if isinstance(value, dict):
-        return "{ " + ", ".join(f"{k} = {_toml_value(v)}" for k, v in value.items()) + " }"
-    return "[" + ", ".join(_toml_value(v) for v in value) + "]"
 
 
 def main(argv=None):

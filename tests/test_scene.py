@@ -228,3 +228,32 @@ def test_a_composition_scene_names_its_base_and_serialises():
     assert summary["method"] == {"name": "yoshida4", "monotone": False,
                                  "base": {"name": "gonzalez", "max_newton_iter": 20, "compensated": True}}
     assert Scene.from_dict(result.scene.to_dict()) == result.scene
+
+
+DOMAIN = dict(system="domain", expressions={"H": "(x**2 + y**2)/2 + z**2", "S": "sqrt(z + 1.2)", "J": ["0", "0", "1"]},
+              parameters={}, eps=3.0, points=[[0.5, 0.0, 0.3], [0.0, 1.5, 0.2], [0.0, -3.0, 1.0]], h=0.05,
+              duration=10.0, record=tuple(OBSERVABLES), every=3, figures=())
+
+
+def test_trajectories_run_together_or_one_by_one_give_the_same_records_bit_for_bit(monkeypatch):
+    """Two of the three trajectories leave the domain of S mid-run (NaN-padded rows after them)."""
+    scene = Scene(**DOMAIN)
+    calls = []
+    together = run_scene(scene, progress=calls.append)
+    assert sum(calls) == scene.steps_per_trajectory * scene.n_trajectories
+    assert [sol.status for sol in together.solutions] == [0, -2, -2]
+    monkeypatch.setattr("geomint.scene.run.ENSEMBLE_STEPS", 0)  # one by one through solve
+    alone = run_scene(scene)
+    assert set(together.records) == set(alone.records)
+    for name, values in together.records.items():
+        assert values.dtype == alone.records[name].dtype and values.tobytes() == alone.records[name].tobytes(), name
+    for a, b in zip(together.solutions, alone.solutions):
+        assert a.message == b.message and a.x.tobytes() == b.x.tobytes()
+
+
+def test_a_resolved_scene_is_resolved_once():
+    resolved = load("rigid_body_distinct").resolved()
+    assert resolved.resolved() is resolved
+    system, method, states = resolved.built()
+    assert run_scene(resolved).system is system
+    np.testing.assert_array_equal(resolved.initial_states(), states)
