@@ -30,14 +30,16 @@ from pathlib import Path
 import numpy as np
 
 from ._version import __version__
-from ._kernels.layout import INTERRUPTED as _INTERRUPTED
 from ._files import atomic
 from .integrators import RK4, Gonzalez
 from .integrators.data import method_to_data, options_of, short_names
 from .scene import FIGURES, OBSERVABLES, CheckpointError, SceneError, bundled_scenes, load, run_scene
-from .run.solve import MAX_STEPS, solve
+from .run.arguments import MAX_STEPS
+from .run.solve import solve
+from .run.status import Status
 from .systems import CATALOGUE, relaxing_rigid_body
 
+#: the command line's exit codes (a run's outcome is a ``geomint.Status``)
 OK, FAILED, BAD_INPUT, INTERNAL, INTERRUPTED = 0, 1, 2, 3, 130
 
 
@@ -114,7 +116,7 @@ def drift(steps, h, eps, out=None):
             f"{'ok' if sol.success else sol.message}",
             file=out,
         )
-        if sol.status == _INTERRUPTED:
+        if sol.status == Status.INTERRUPTED:
             return INTERRUPTED
         failed |= not sol.success
     print("(drift and rises over the states saved every", save_every, "steps)", file=out)

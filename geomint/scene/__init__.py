@@ -75,8 +75,10 @@ from ..results import solution as _solution
 from ..analysis import level_set as _level_set
 from .. import diagnostics as _diagnostics
 from ..integrators.data import MethodDataError, method_from_data, method_to_data
-from .._kernels.layout import INTERRUPTED
-from ..run.solve import MAX_STEPS, solve, step_count
+from ..run.arguments import MAX_STEPS
+from ..run.controller import step_count
+from ..run.solve import solve
+from ..run.status import Status
 from ..model.system import MetriplecticSystem
 from ..systems import CATALOGUE
 
@@ -530,10 +532,10 @@ def run_scene(scene, progress=None, checkpoint=None, resume=False, before_steps=
             break
         wall.append(time.perf_counter() - start)
         solutions.append(sol)
-        if folder is not None and sol.status != INTERRUPTED:
+        if folder is not None and sol.status != Status.INTERRUPTED:
             _io.save(sol, folder / f"{i}.npz")
             running.unlink(missing_ok=True)
-        if sol.status == INTERRUPTED:
+        if sol.status == Status.INTERRUPTED:
             partial = True
             break
     if not solutions:  # interrupted before a first trajectory ran: nothing to return
