@@ -61,8 +61,9 @@ class Ensemble:
     rows : (n,) int array
         Valid rows of each trajectory.
     status : (n,) int array
-        ``geomint.Solution.status`` of each trajectory, and -5: the start was
-        refused (not finite, or H or S not finite there), 3: not run (Ctrl-C).
+        The ``geomint.Status`` code of each trajectory (``Solution.status``), and
+        -5 ``INVALID_START``: the start was refused (not finite, or H or S not
+        finite there), 3 ``NOT_RUN``: not run (Ctrl-C).
     failed_step : (n,) int array
         The failed step, 0 where none failed.
     messages : tuple of str
@@ -116,7 +117,7 @@ class Ensemble:
     def solution(self, i):
         """Trajectory ``i`` as a ``geomint.Solution``."""
         n = int(self.rows[i])
-        status = int(self.status[i])
+        status = Status(int(self.status[i]))
         return Solution(t=self.t[i, :n].copy(), x=self.x[i, :n].copy(), H=self.H[i, :n].copy(),
                         S=self.S[i, :n].copy(), success=status == 0, status=status, message=self.messages[i],
                         failed_step=int(self.failed_step[i]) or None, n_steps=int(self.n_steps[i]),
