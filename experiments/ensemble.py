@@ -12,7 +12,7 @@ The floor is ``experiments.floors.midpoint_batch_inlined`` (implicit midpoint,
 which is Gonzalez's step for this quadratic H, field inlined, prange).
 
 Two more rows say where the gap to the floor is: geomint's own step loop
-(``driver.integrate``, one thread, called from a Python loop over the starts)
+(``loop.run``, one thread, called from a Python loop over the starts)
 given the model as the library gives it (first-class function values) and
 given the user functions as numba dispatchers instead, so that LLVM inlines
 them as the floor's field is inlined.  That needs a compilation per system
@@ -81,23 +81,24 @@ def speed(starts, steps, repeats):
 
 
 def _step_loop(body, X0, span, h, steps, inlined):
-    """Final states of ``driver.integrate`` (Gonzalez, fixed steps) from each row of ``X0``, one thread, with the
+    """Final states of ``loop.run`` (Gonzalez, fixed steps) from each row of ``X0``, one thread, with the
     model as the library hands it over (first-class functions) or, ``inlined``, with its functions handed over
     as dispatchers (inlined by LLVM, compiled for this system only)."""
-    from geomint._kernels import driver, layout
+    from geomint._kernels import control, layout, loop
 
     f, fc = body.functions, body.model
     model = layout.Model(f.H, f.grad_H, f.S, f.grad_S, f.poisson, fc.params, fc.origin) if inlined else fc
     method = geomint.Gonzalez().lower(body)
     t0, t_end = span
-    grid = driver.Grid(t0, h, steps, (t_end - t0) - (steps - 1) * h, steps + 1)  # solve's grid over span
+    grid = control.Constant(t0, h, steps, (t_end - t0) - (steps - 1) * h, steps + 1)  # solve's grid over span
     finals = np.empty_like(X0)
     for i, x0 in enumerate(X0):
         state, work = np.zeros(layout.N_STATE), np.zeros(layout.WORK)
-        state[:3] = x0
-        out = driver.Output(np.empty(3), np.empty((3, 3)), np.empty(3), np.empty(3),
+        state[:3], state[layout.STATE_ANCHOR] = x0, np.nan
+        out = loop.Output(np.empty(3), np.empty((3, 3)), np.empty(3), np.empty(3),
                             np.zeros(layout.N_COUNTERS, dtype=np.int64), np.zeros(1))
-        driver.integrate(model, body.eps, body.hamiltonian, method, state, work, 0, steps, grid, out)
+        loop.run(model, body.eps, body.hamiltonian, method, grid, state, work, layout.new_clock(t0), np.array([t_end]),
+                 steps, out)
         finals[i] = state[:3]
     return finals
 

@@ -30,6 +30,7 @@ from .results.solution import AccuracyWarning, Solution, load
 from .run import events
 from .run.ensemble import Ensemble, solve_ensemble, sweep
 from .run.solve import solve
+from .run.status import Status
 from .scene import Scene, SceneError, SceneResult, run_scene
 from .systems import reference
 
@@ -46,7 +47,7 @@ __all__ = [
     "AVF", "RK4", "AccuracyWarning", "BogackiShampine32", "Composition", "DampedGonzalez", "DormandPrince54",
     "DormandPrince853", "Ensemble", "Gonzalez", "Integrator", "ItohAbe", "KahanLi6", "KahanLi8", "Lie",
     "MetriplecticSystem", "OscillatorRotation", "Projected", "RigidBodyFlow", "RotorSplitting", "Scene", "SceneError",
-    "SceneResult", "Solution", "Strang", "Suzuki4", "SuzukiUmeno8", "SymmetrizedItohAbe", "UserFunctionError",
+    "SceneResult", "Solution", "Status", "Strang", "Suzuki4", "SuzukiUmeno8", "SymmetrizedItohAbe", "UserFunctionError",
     "Yoshida4", "Yoshida6", "__version__", "analysis", "continuation", "diagnostics", "events", "level_set", "load",
     "reference", "run_scene", "solve", "solve_ensemble", "studies", "sweep", "systems",
 ]

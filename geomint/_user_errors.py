@@ -6,7 +6,7 @@ type cannot pass an exception on to its caller: numba hands it to
 returns garbage, so a run would go on with wrong values and end with
 ``success = True``.  ``catching(counters)`` records such exceptions while
 kernels run: the first is kept and each one counted in ``counters[layout.RAISED]``, which
-the step loop reads after every step (``driver.integrate``) and turns into a
+the step loop reads after every step (``loop.run``) and turns into a
 failed step.  The hook is synchronous (the kernel holds the GIL when numba calls
 it), per thread, and passes every other unraisable exception on unchanged.
 """

@@ -33,14 +33,16 @@ from ._version import __version__
 from ._files import atomic
 from .integrators import RK4, Gonzalez
 from .integrators.data import method_to_data, options_of, short_names
+from .run.arguments import MAX_STEPS
+from .run.solve import solve
+from .run.status import Status
 from .scene import (
     FIGURES, OBSERVABLES, CheckpointError, SceneError, bundled_scenes, load_scene, run_scene, runs_together, solve_together,
 )
-from .scene import INTERRUPTED as _INTERRUPTED
 from .scene.toml import to_toml, toml_value
-from .run.solve import MAX_STEPS, solve
 from .systems import CATALOGUE, relaxing_rigid_body
 
+#: the command line's exit codes (a run's outcome is a ``geomint.Status``)
 OK, FAILED, BAD_INPUT, INTERNAL, INTERRUPTED = 0, 1, 2, 3, 130
 
 
@@ -117,7 +119,7 @@ def drift(steps, h, eps, out=None):
             f"{'ok' if sol.success else sol.message}",
             file=out,
         )
-        if sol.status == _INTERRUPTED:
+        if sol.status == Status.INTERRUPTED:
             return INTERRUPTED
         failed |= not sol.success
     print("(drift and rises over the states saved every", save_every, "steps)", file=out)
@@ -161,7 +163,7 @@ def run(scene_name, out_dir=None, quiet=False, out=None, checkpoint_every=None, 
         _report(result, summary, [data, summary_path, *figures], out)
     if result.partial:
         resumable = "; resume with --resume" if checkpoint else ""
-        cut = " (the last one cut short)" if result.solutions[-1].status == _INTERRUPTED else ""
+        cut = " (the last one cut short)" if result.solutions[-1].status == Status.INTERRUPTED else ""
         print(f"geomint: interrupted: {len(result.solutions)} of {scene.n_trajectories} trajectories written{cut}, "
               f"marked \"partial\" in {summary_path}{resumable}", file=sys.stderr)
         return INTERRUPTED

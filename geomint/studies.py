@@ -1,4 +1,4 @@
-"""Runs about runs: a reference solution, the measured order of a method, work-precision sweeps.
+"""Runs about runs: a reference solution, the measured order of a method, work-precision sweeps, S-rise counts.
 
 Each function calls ``geomint.solve`` and measures what comes back with ``geomint.diagnostics``.
 """
@@ -9,8 +9,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._kernels import control as _control
+from ._kernels import layout as _layout
+from ._kernels import loop as _loop
 from .diagnostics import error_along, median_time, observed_order
 from .integrators import resolve
+from .integrators.program import program_of
+from .model.system import MetriplecticSystem
+from .run.arguments import check_state
+from .run.chunks import new_run_state
 from .run.solve import solve
 
 
@@ -120,3 +127,34 @@ def work_precision(system, x0, t_end, method, step_counts, reference, repeats=3,
         if plateau == 2:
             break
     return curve
+
+
+def S_rise_statistics(system, method, x0, h, n_steps, ulps=16):
+    """Count the sub-steps and full steps of ``method`` that raise S, on ``n_steps`` steps from ``x0``.
+
+    A rise is ``S_new - S_old > ulps * eps * max(|S_old|, |S_new|)``.  Returns a
+    dict: ``steps``, ``sub_steps``, ``sub_step_rises``, ``full_step_rises``
+    (after the safeguard), ``safeguard_fired`` (full steps redone by the
+    monotone safeguard) and ``status``.  Runs compiled, through the one step
+    loop (a ``Counting`` controller), saving only the first and last states.
+    Also importable as ``geomint.integrators.S_rise_statistics``.
+    """
+    if not isinstance(system, MetriplecticSystem):
+        raise TypeError(f"`system` must be a geomint.MetriplecticSystem; got {type(system).__name__}.")
+    method.check_system(system)
+    x0 = check_state(x0)
+    h, n_steps = float(h), int(n_steps)
+    lowered = program_of(method).lower(system)
+    out = _loop.Output(np.empty(3), np.empty((3, 3)), np.empty(3), np.empty(3),
+                       np.zeros(_layout.N_RISE_COUNTERS, dtype=np.int64), np.zeros(1))
+    work, state = new_run_state(lowered, x0)
+    counting = _control.Counting(0.0, h, n_steps, h, max(n_steps, 1), float(ulps))
+    if n_steps > 0:
+        _loop.run(system.model, system.eps, system.hamiltonian, lowered, counting, state, work, _layout.new_clock(0.0),
+                  np.array([n_steps * h]), n_steps, out)
+    counters = out.counters
+    steps = int(counters[_layout.STEPS])
+    return {"steps": steps, "sub_steps": steps * int(lowered.iopts[_layout.P_GAMMAS] * lowered.iopts[_layout.P_STAGES]),
+            "sub_step_rises": int(counters[_layout.SUB_STEP_RISES]),
+            "full_step_rises": int(counters[_layout.FULL_STEP_RISES]),
+            "safeguard_fired": int(counters[_layout.SAFEGUARD_FIRED]), "status": int(counters[_layout.STATUS])}

@@ -11,10 +11,10 @@ FIRST_SOLVE = """
 import time
 start = time.perf_counter()
 import geomint
-from geomint._kernels import driver
+from geomint._kernels import loop
 body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
 sol = geomint.solve(body, [0.4536, 0.0, 0.8912], (0.0, 1.0), 0.05)
-stats = driver.integrate.stats
+stats = loop.run.stats
 print(sum(stats.cache_hits.values()), sum(stats.cache_misses.values()), sol.success, time.perf_counter() - start)
 """
 

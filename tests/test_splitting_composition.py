@@ -254,17 +254,18 @@ def test_splittings_with_exact_and_explicit_sub_flows_keep_what_they_declare(dat
 
 
 def adjoint_defect(system, method, x, h):
-    """``|Phi_{-h}(Phi_h(x)) - x|`` through the compiled driver (solve takes h > 0 only)."""
-    from geomint._kernels import driver, layout
+    """``|Phi_{-h}(Phi_h(x)) - x|`` through the compiled loop (solve takes h > 0 only)."""
+    from geomint._kernels import control, layout, loop
 
     state = np.concatenate([x, np.zeros(layout.N_STATE - 3)])
     data = method.lower(system)
     for step in (h, -h):
-        out = driver.Output(np.empty(2), np.empty((2, 3)), np.empty(2), np.empty(2),
-                            np.zeros(layout.N_COUNTERS, dtype=np.int64), np.zeros(1))
+        state[layout.STATE_ANCHOR] = np.nan  # each step anchored to H at its own start
+        out = loop.Output(np.empty(2), np.empty((2, 3)), np.empty(2), np.empty(2),
+                          np.zeros(layout.N_COUNTERS, dtype=np.int64), np.zeros(1))
         work = np.zeros(getattr(data, "slots", 1) * layout.WORK)
-        driver.integrate(system.model, system.eps, system.hamiltonian, data, state, work, 0, 1,
-                         driver.Grid(0.0, step, 1, step, 1), out)
+        loop.run(system.model, system.eps, system.hamiltonian, data, control.Constant(0.0, step, 1, step, 1), state,
+                 work, layout.new_clock(0.0), np.array([step]), 1, out)
         assert out.counters[layout.STATUS] == 0
     return np.max(np.abs(state[:3] - x))
 

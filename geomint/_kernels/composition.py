@@ -24,9 +24,8 @@ the program can run.  ``leaf_step`` is compiled with only those leaves, a
 program whose discrete-gradient stages share one kind compiles that discrete
 gradient alone (``stage_kind``), and one without damped stages does not
 compile the damping factor (``stage_damped``).  Each distinct set of markers
-is a type of its own, so it compiles (and caches) a step loop of its own.
-With this and ``jit.inner``, a Yoshida4(Gonzalez()) run compiles in 21.5 s
-instead of 40.9 s (empty cache, this machine).
+is a type of its own, so it compiles (and caches) a step loop of its own
+(docs/design.md section 5).
 
 Energy.  The discrete-gradient sub-steps are anchored to the evaluated H of
 their own sub-state: a sub-step anchored to H(x0) would have to remove the few
@@ -40,30 +39,29 @@ more than 2 ulp of its terms, a projection along grad H (a move of a few ulps)
 restores it, keeping S at most where the full step started (moving along
 grad S too where grad H alone would raise it beyond that), and is skipped
 where that finds no point.
-Compensated summation (``steps.advance``) runs through every sub-step; a
+Compensated summation (``vec3.advance``) runs through every sub-step; a
 projection restarts it (the projected state is the state).
 
-Caller: ``driver.step`` (and ``rise_statistics``).
+Caller: ``step.step`` (and ``control.Counting``'s attempts, which count S rises).
 """
 
 import numpy as np
-from numba import njit
 from numba.extending import overload
 
-from .._cache import CACHE
-from .discrete_gradient import origin_terms, term_scale
+from .dg_step import discrete_gradient_step
 from .exact_flows import rigid_body_flow, rotation, rotor_splitting
 from .jit import hot, inner
 from .layout import (
-    GRADIENT, HAMILTONIAN, HEADER, KIND_MARKERS, LEAF_DISCRETE_GRADIENT, LEAF_RIGID_BODY_FLOW, LEAF_RK4,
+    EPS, GRADIENT, HAMILTONIAN, HEADER, KIND_MARKERS, LEAF_DISCRETE_GRADIENT, LEAF_RIGID_BODY_FLOW, LEAF_RK4,
     LEAF_ROTATION, LEAF_ROTOR_SPLITTING, NEWTON_FAILED, NO_PROJECTION, NON_FINITE, OK, P_ANCHOR, P_GAMMAS,
     P_MAX_ITER, P_MONOTONE, P_PROJECTION, P_STAGES, PROJECTION_FAILED, R_COEFF_AT, R_COEFF_COUNT, R_COMPENSATED,
     R_DAMPED, R_FLOW, R_KIND, R_LEAF, R_MAX_ITER, ROW, SYMMETRIC, UNKNOWN, WORK, Damped, RigidBodyFlowLeaf, RK4Leaf,
     RotationLeaf, RotorSplittingLeaf, StepResult, Undamped,
 )
 from .projection import project_both, project_energy, project_step, rise_tolerance
-from .steps import EPS, advance, discrete_gradient_step, rk4_step
-from .vec3 import ZERO, add, as_vector, axpy, dot, is_finite, load, norm_inf, sub
+from .roundoff import origin_terms, term_scale
+from .runge_kutta import rk4_step
+from .vec3 import ZERO, add, advance, as_vector, axpy, dot, is_finite, load, norm_inf, sub
 
 #: a composed step off H(x0) by more than this many ulps of the terms of H is pulled back
 ANCHOR_ULPS = 2.0
@@ -294,31 +292,3 @@ def composed_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, 
             y, comp_y = z, ZERO
     status = OK if is_finite(y) and np.isfinite(H_y) and np.isfinite(S_y) else NON_FINITE
     return StepResult(y, comp_y, H_y, S_y, status, iterations, evaluations, residual, UNKNOWN), rises, fired
-
-
-@njit(cache=CACHE, error_model="numpy")
-def rise_statistics(model, eps, hamiltonian, method, state, h, n_steps, rise_ulps, out):
-    """Run ``n_steps`` full steps from ``state`` (updated) and count S rises beyond ``rise_ulps`` ulp.
-
-    ``out``: steps taken, sub-steps, sub-steps raising S, full steps raising S,
-    safeguard firings, status.  Caller: ``geomint.integrators.S_rise_statistics``.
-    """
-    buf = np.empty(3)
-    work = np.zeros(method.slots * WORK)
-    x = (state[0], state[1], state[2])
-    comp = ZERO
-    anchor, S_x = _invariants(model, buf, x)
-    per_step = method.iopts[P_GAMMAS] * method.iopts[P_STAGES]
-    for _ in range(n_steps):
-        r, rises, fired = composed_step(method, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work, rise_ulps)
-        if r.status != OK:
-            out[5] = r.status
-            break
-        out[0] += 1
-        out[1] += per_step
-        out[2] += rises
-        out[3] += r.S - S_x > rise_ulps * EPS * max(abs(S_x), abs(r.S))
-        out[4] += fired
-        x, comp, S_x = r.x, r.comp, r.S
-    state[0], state[1], state[2] = x
-

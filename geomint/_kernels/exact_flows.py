@@ -21,9 +21,8 @@ from numba import njit
 
 from .._cache import CACHE
 from .jit import inner
+from .layout import EPS
 from .vec3 import as_vector, load
-
-EPS = np.finfo(np.float64).eps
 
 
 @njit(cache=CACHE, error_model="numpy")

@@ -1,26 +1,35 @@
-"""Every integer code, array layout and named tuple the kernels and ``geomint.solve`` share.
+"""Every integer code, array layout, constant and named tuple the kernels and ``geomint.run`` share.
 
 One module, imported by all the others and importing none of them, so the
-kernels have no import cycle.
+kernels have no import cycle.  The outcome codes are defined here and only
+here; ``geomint.Status`` (``geomint/run/status.py``) gives each its name,
+message and advice.
 
-Method data.  An integrator lowers itself (``Integrator.lower(system)``) to one
-of the named tuples below; their *class* selects the compiled step at typing
-time (``driver.step``), so a run compiles only the family it uses: a Gonzalez
-run compiles neither compositions nor the other discrete gradients.
+Step data (a lowered method).  An integrator lowers itself
+(``Integrator.lower(system)``) to one of the named tuples below; their *class*
+selects the compiled step at typing time (``step.step``), so a run compiles
+only the family it uses: a Gonzalez run compiles neither compositions nor the
+other discrete gradients.
 """
 
 from collections import namedtuple
 
 import numpy as np
 
-# -- step status ------------------------------------------------------------------------------
+#: the unit round-off of float64, and its square root (difference quotients)
+EPS = float(np.finfo(np.float64).eps)
+SQRT_EPS = float(np.sqrt(EPS))
+
+# -- outcome codes of a run (``geomint.Status``: names, messages, advice) ------------------------------
 OK = 0
-INTERRUPTED = 2  # set by ``geomint.solve`` between chunks (1 is kept for terminal events, as in scipy)
+TERMINATED = 1  # a terminal event stopped the run (as scipy's 1)
+INTERRUPTED = 2  # Ctrl-C, answered between chunks of the loop
+NOT_RUN = 3  # an ensemble's trajectory not started before Ctrl-C
 NEWTON_FAILED = -1
 NON_FINITE = -2
 PROJECTION_FAILED = -3
 USER_RAISED = -4  # a user function raised inside the step (``geomint._user_errors``)
-# -5 is an ensemble's invalid start (``geomint.ensemble``)
+INVALID_START = -5  # an ensemble's start where H or S is not finite
 STEP_TOO_SMALL = -6  # an adaptive run needed a step below the resolution of its time
 
 # -- which user function produced a non-finite value (counters[CULPRIT]) ------------------------
@@ -32,7 +41,7 @@ FN_GRAD_S = 4
 FN_POISSON = 5
 FUNCTION_NAMES = {UNKNOWN: None, FN_H: "H", FN_GRAD_H: "grad_H", FN_S: "S", FN_GRAD_S: "grad_S", FN_POISSON: "J/P"}
 
-# -- counters (int64 array shared by driver.integrate and geomint.solve) --------------------------
+# -- counters (int64 array shared by loop.run and geomint.run) --------------------------
 STEPS = 0
 NEWTON_ITERATIONS = 1
 FIELD_EVALUATIONS = 2
@@ -43,6 +52,12 @@ CULPRIT = 6
 RAISED = 7  # exceptions user functions raised, counted by ``geomint._user_errors``
 REJECTED = 8  # attempted steps an adaptive run rejected (error above tolerance, or a failed attempt retried)
 N_COUNTERS = 9
+#: S-rise counts of a ``control.Counting`` run, after the counters above: sub-steps that raised S, full steps that
+#: raised S (after the safeguard), full steps the monotone safeguard redid
+SUB_STEP_RISES = 9
+FULL_STEP_RISES = 10
+SAFEGUARD_FIRED = 11
+N_RISE_COUNTERS = 12
 
 # -- run state (float64 array carried from chunk to chunk) -------------------------------------
 #    x (3), its compensation (3), the energy anchor H(x0), S(x_n)
@@ -52,10 +67,10 @@ STATE_ANCHOR = 6
 STATE_S = 7
 N_STATE = 8
 
-# -- clock of an adaptive or stop-landing run (float64 array carried from chunk to chunk, ``adaptive.march``)
+# -- clock of a run (float64 array carried from chunk to chunk, ``loop.run``, ``control``)
 #    the time of the state, the next step to try (signed), the last accepted error norm (PI controller),
-#    fixed steps: the time of the last landing and the steps taken since; the index of the next stop;
-#    the reach of the energy anchor (``adaptive`` module docstring, "Energy anchor near equilibria")
+#    fixed steps: the time of the last landing and the steps taken since (a ``Constant`` grid: since t0);
+#    the index of the next stop; the reach of the energy anchor (``control`` module docstring)
 C_T = 0
 C_H = 1
 C_ERROR = 2
@@ -66,15 +81,17 @@ C_REACH = 6
 N_CLOCK = 7
 
 
-def new_clock(t0, h=0.0):
-    """A clock at ``t0`` whose next step is ``h`` (0: chosen by ``adaptive.first_step``), full reach."""
+def new_clock(t0, h=0.0, steps=0):
+    """A clock at ``t0`` whose next step is ``h`` (0: chosen by ``control.first_step``), full reach, ``steps``
+    steps taken (a ``control.Constant`` grid resumed: ``t0`` is then ``t0 + steps h``)."""
     clock = np.zeros(N_CLOCK)
     clock[C_T] = clock[C_BASE] = t0
     clock[C_H] = h
+    clock[C_COUNT] = steps
     clock[C_REACH] = 1.0
     return clock
 
-# -- error estimators of an adaptive run (``adaptive.Control.estimator``)
+# -- error estimators of an adaptive run (``control.Control.estimator``)
 NO_ESTIMATE = 0  # fixed steps that land on the stops
 EMBEDDED = 1  # the method's own embedded pair (``EmbeddedPairStep``)
 RK4_REFERENCE = 2  # a discrete-gradient step against the explicit RK4 step from the same state
@@ -135,7 +152,7 @@ R_COEFF_AT = 6
 R_COEFF_COUNT = 7
 ROW = 8
 
-# -- results and method data -----------------------------------------------------------------------
+# -- results and step data -------------------------------------------------------------------------
 StepResult = namedtuple("StepResult", "x comp H S status iterations evaluations residual culprit")
 
 #: the classical Runge-Kutta method (no data)
@@ -172,5 +189,5 @@ LEAF_MARKERS = {LEAF_RK4: RK4Leaf, LEAF_RIGID_BODY_FLOW: RigidBodyFlowLeaf, LEAF
 
 #: the model as every kernel receives it: the user's functions (compiled, first-class), params, and
 #: ``origin = (H(0), grad H(0), S(0), grad S(0))`` (8 floats, 0 where not finite), from which the
-#: kernels measure the constant and linear terms of H and S (``discrete_gradient.origin_terms``)
+#: kernels measure the constant and linear terms of H and S (``roundoff.origin_terms``)
 Model = namedtuple("Model", "H grad_H S grad_S J params origin")

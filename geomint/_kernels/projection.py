@@ -17,13 +17,10 @@ gradient part, where the feasible set shrinks to the point ``x_n``).
 
 import numpy as np
 
-from .discrete_gradient import origin_terms, term_scale
 from .jit import inner
-from .steps import _kept
+from .layout import EPS, SQRT_EPS
+from .roundoff import kept, origin_terms, term_scale
 from .vec3 import as_vector, axpy, dot, load, norm_inf
-
-EPS = np.finfo(np.float64).eps
-SQRT_EPS = np.sqrt(EPS)
 
 
 @inner
@@ -112,7 +109,7 @@ def on_level(model, buf, y, H_y, S_y, anchor, S_x):
     load(buf, y)
     grad_h = as_vector(model.grad_H(buf, model.params))
     grad_s = as_vector(model.grad_S(buf, model.params))
-    return (_kept(anchor, H_y, term_scale(anchor, H_y, grad_h, y, origin_terms(model.origin, 0, y)), 64.0, 0.0)
+    return (kept(anchor, H_y, term_scale(anchor, H_y, grad_h, y, origin_terms(model.origin, 0, y)), 64.0, 0.0)
             and S_y - S_x <= rise_tolerance(S_x, S_y, grad_s, y, origin_terms(model.origin, 4, y)))
 
 
@@ -131,7 +128,7 @@ def project_step(model, buf, y, H_y, S_y, anchor, S_x, max_iter):
     y, H_y, it = project_energy(model, buf, y, anchor, max_iter)
     evaluations = it + 2
     grad_h = as_vector(model.grad_H(load(buf, y), model.params))
-    if not _kept(anchor, H_y, term_scale(anchor, H_y, grad_h, y, origin_terms(model.origin, 0, y)), 64.0, 0.0):
+    if not kept(anchor, H_y, term_scale(anchor, H_y, grad_h, y, origin_terms(model.origin, 0, y)), 64.0, 0.0):
         return y, H_y, S_y, False, evaluations
     S_y = model.S(load(buf, y), model.params)
     grad_s = as_vector(model.grad_S(buf, model.params))

@@ -1,17 +1,14 @@
-"""Arithmetic on 3-vectors held as tuples of floats (no allocation in hot loops).
+"""Arithmetic on 3-vectors held as tuples of floats (no allocation in hot loops), and compensated summation.
 
-These are ordinary compiled functions, not numba-inlined ones
-(``inline="always"`` copies a function's IR into every call site and types it
-again there): LLVM inlines them all the same, so the steps run as fast, and a
-Gonzalez run compiles in 15.4 s instead of 18.5 s (empty cache, this machine).
+These are ordinary compiled functions (``jit.inner``), not numba-inlined ones;
+LLVM inlines them all the same (docs/design.md section 5).
 """
 
 import numpy as np
-from numba import types
+from numba import njit, types
 from numba.extending import overload
 
 from .jit import inner
-
 
 ZERO = (0.0, 0.0, 0.0)
 
@@ -140,3 +137,15 @@ def flush_tiny(u, carry):
         (u[0] if keep0 else 0.0, u[1] if keep1 else 0.0, u[2] if keep2 else 0.0),
         (carry[0] if keep0 else 0.0, carry[1] if keep1 else 0.0, carry[2] if keep2 else 0.0),
     )
+
+
+@njit(inline="always")
+def advance(x, comp, dx):
+    """``x + dx`` by compensated summation; returns ``(x_new, comp_new)``.
+
+    Kahan, Comm. ACM 8 (1965) 40, doi:10.1145/363707.363723; as in Hairer's
+    geometric integrators.  ``x + comp`` is the state carried to extra precision.
+    """
+    y = sub(dx, comp)
+    x_new = add(x, y)
+    return x_new, sub(sub(x_new, x), y)

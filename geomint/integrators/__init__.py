@@ -1,6 +1,6 @@
 """What a method is: small declarative objects with traits; no step loops.
 
-Each integrator lowers itself (``lower(system)``) to method data for the shared
+Each integrator lowers itself (``lower(system)``) to step data for the shared
 engine in ``geomint._kernels``.  ``INTEGRATORS`` is the one table of short names.
 """
 
@@ -8,7 +8,6 @@ from .base import Integrator, Traits
 from .composition import SCHEMES, Composition, KahanLi6, KahanLi8, Suzuki4, SuzukiUmeno8, Yoshida4, Yoshida6
 from .discrete_gradient import AVF, DampedGonzalez, DiscreteGradient, Gonzalez, ItohAbe, SymmetrizedItohAbe
 from .exact_flows import OscillatorRotation, RigidBodyFlow, RotorSplitting
-from .program import S_rise_statistics
 from .projection import Projected
 from .runge_kutta import RK4, BogackiShampine32, DormandPrince54, DormandPrince853, EmbeddedRungeKutta
 from .splitting import Lie, Strang
@@ -23,6 +22,16 @@ INTEGRATORS = {
         RigidBodyFlow, RotorSplitting, OscillatorRotation,
     )
 }
+
+
+def __getattr__(name):
+    """``S_rise_statistics`` runs a method, so it lives with the runs about runs (``geomint.studies``); it stays
+    importable here, by its earlier name, without this layer importing the run layer."""
+    if name == "S_rise_statistics":
+        from ..studies import S_rise_statistics
+
+        return S_rise_statistics
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def resolve(method):

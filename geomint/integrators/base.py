@@ -69,12 +69,12 @@ class Integrator:
         raise TypeError(f"{self!r} cannot be a stage of a splitting or composition: use it on the whole field.")
 
     def error_estimate(self):
-        """``(estimator, order of the estimate)`` for adaptive steps (``geomint._kernels.adaptive``):
+        """``(estimator, order of the estimate)`` for adaptive steps (``geomint._kernels.control``):
         step doubling (``layout.DOUBLING``) at the method's order, unless the method has a cheaper
         estimate of its own."""
         return layout.DOUBLING, self.order
 
     def lower(self, system):
-        """The method data (a named tuple of ``geomint._kernels.layout``) for a run of ``system``.
+        """The step data (the lowered method: a named tuple of ``geomint._kernels.layout``) for a run of ``system``.
         Caller: ``geomint.solve``, after ``check_system``."""
         raise NotImplementedError

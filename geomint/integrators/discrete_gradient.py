@@ -6,7 +6,7 @@ Every method here is the one metriplectic step
 
 (``H(x') = H(x)``, ``S(x') - S(x) = -h eps |dgH x dgS|^2 <= 0``) with a
 different discrete gradient ``dg``; one compiled Newton loop
-(``geomint._kernels.steps.discrete_gradient_step``) serves all of them, and a
+(``geomint._kernels.dg_step.discrete_gradient_step``) serves all of them, and a
 run compiles only the discrete gradient it uses.
 """
 
@@ -16,7 +16,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from .._kernels import discrete_gradient as _dg
+from .._kernels import discrete_field as _discrete_field
 from .._kernels import layout
 from .base import Integrator, Traits
 
@@ -73,7 +73,7 @@ class DiscreteGradient(Integrator):
         """
         out = np.empty((3, 3))
         pair = [np.ascontiguousarray(v, dtype=np.float64) for v in (x, x_new)]
-        _dg.evaluate(system.model, layout.KIND_MARKERS[self.kind](self.kind), self._coeffs(), *pair, out)
+        _discrete_field.evaluate(system.model, layout.KIND_MARKERS[self.kind](self.kind), self._coeffs(), *pair, out)
         return out[0], out[1], out[2]
 
 

@@ -3,7 +3,7 @@
 A ``Program`` is the flat description that ``geomint._kernels.composition``
 runs: stages (a method on a flow, with a fraction of the step), the
 composition's gammas, the monotone safeguard and the projection.  Every stage
-carries its own method data (``Integrator.stage``), so any method composes,
+carries its own step data (``Integrator.stage``), so any method composes,
 splits and projects.  A method that is not itself a program is a one-stage
 program on the full field.
 """
@@ -12,9 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._kernels import composition as _comp
 from .._kernels import layout
-from ..model.system import MetriplecticSystem
 
 FLOWS = {"full": layout.FULL, "hamiltonian": layout.HAMILTONIAN, "gradient": layout.GRADIENT}
 
@@ -89,26 +87,3 @@ def check_flow(argument, method, flow):
     """Raise ``ValueError`` if ``method`` cannot integrate the sub-flow ``flow``."""
     if flow not in method.flows:
         raise ValueError(f"`{argument}` must integrate the {flow} flow; {method!r} integrates only the {method.flows[0]} flow.")
-
-
-def S_rise_statistics(system, method, x0, h, n_steps, ulps=16):
-    """Count the sub-steps and full steps of ``method`` that raise S, on ``n_steps`` steps from ``x0``.
-
-    A rise is ``S_new - S_old > ulps * eps * max(|S_old|, |S_new|)``.  Returns a
-    dict: ``steps``, ``sub_steps``, ``sub_step_rises``, ``full_step_rises``
-    (after the safeguard), ``safeguard_fired`` (full steps redone by the
-    monotone safeguard) and ``status``.  Runs compiled, without saving states.
-    """
-    if not isinstance(system, MetriplecticSystem):
-        raise TypeError(f"`system` must be a geomint.MetriplecticSystem; got {type(system).__name__}.")
-    method.check_system(system)
-    state = np.array(x0, dtype=np.float64)
-    if state.shape != (3,) or not np.all(np.isfinite(state)):
-        raise ValueError(f"`x0` must be 3 finite numbers; got {x0!r}.")
-    out = np.zeros(6, dtype=np.int64)
-    _comp.rise_statistics(
-        system.model, system.eps, system.hamiltonian, program_of(method).lower(system), state, float(h), int(n_steps),
-        float(ulps), out,
-    )
-    keys = ("steps", "sub_steps", "sub_step_rises", "full_step_rises", "safeguard_fired", "status")
-    return dict(zip(keys, (int(v) for v in out)))

@@ -23,7 +23,7 @@ class Projected(Programmed, Integrator):
         y = x~ + lambda grad H(x~) + mu grad S(x~),   H(y) = H0,  S(y) = S_n
 
     (2x2 Newton, Gram-matrix Jacobian).  So ``H(x_{n+1}) = H0`` to round-off at
-    every step, with ``H0`` the energy anchor the driver passes (no random walk of the target), and
+    every step, with ``H0`` the energy anchor the loop passes (no random walk of the target), and
     ``S(x_{n+1}) <= S(x_n)`` up to round-off whatever ``method`` does.  The order
     of ``method`` is kept (the projection moves by the size of its local error).
 

@@ -33,13 +33,18 @@ class Solution:
         Energy and Casimir at ``t``.
     success : bool
         True when the run reached ``t_end`` or a terminal event (``status`` 0 or 1).
-    status : int
-        0: reached ``t_end``; 1: a terminal event stopped the run; 2:
-        interrupted by Ctrl-C (SIGINT), the states up to the interrupt kept;
-        -1: a Newton solve did not converge; -2: a step produced a
-        non-finite state; -3: a projection found no point of
-        H = H0 that does not raise S; -4: a user function raised an exception
-        during a step (named in ``message``).
+    status : geomint.Status
+        How the run ended, an ``IntEnum`` (so also an int; ``Status.message`` and
+        ``Status.advice`` say what it means and what to do): 0 ``OK``, reached
+        ``t_end``; 1 ``TERMINATED``, a terminal event stopped the run; 2
+        ``INTERRUPTED``, by Ctrl-C (SIGINT), the states up to the interrupt kept;
+        -1 ``NEWTON_FAILED``, a Newton solve did not converge; -2 ``NON_FINITE``,
+        a step produced a non-finite value; -3 ``PROJECTION_FAILED``, a
+        projection found no point of H = H0 that does not raise S; -4
+        ``USER_RAISED``, a user function raised an exception during a step
+        (named in ``message``); -6 ``STEP_TOO_SMALL``, the error control needed
+        a step below the resolution of t.  (An ensemble's trajectories may also
+        have -5 ``INVALID_START`` and 3 ``NOT_RUN``.)
     message : str
         What happened, naming the failed step and time if any.
     failed_step : int or None

@@ -30,22 +30,17 @@ import numpy as np
 
 from .. import _user_errors, _validate
 from .._kernels import batch as _batch
-from .._kernels import driver as _driver
 from .._kernels import layout as _layout
 from ..results.solution import AccuracyWarning, Solution
-from .solve import (
-    RTOL, _check_memory, _check_save_every, _check_span, _check_t_eval, _interrupts, _message, _raised_message,
-    check_direction, check_step_or_control, choose_method, marching, step_caveat, step_count, step_ratios,
-    tolerance_caveat,
-)
+from .arguments import check_direction, check_memory, check_span, check_states, check_t_eval
+from .chunks import interrupts
+from .controller import RTOL, check_step_or_control, constant_grid, landing_control
+from .solve import choose_method, raised_message, run_message, step_caveat, step_ratios, tolerance_caveat
+from .status import Status
 from ..model.system import MetriplecticSystem
 
 #: trajectories per call of the batch kernel (between calls: progress, Ctrl-C, Dask tasks)
 CHUNK = 256
-#: status of a trajectory whose start was refused (not finite, or H or S not finite there); it is not run
-INVALID_START = -5
-#: status of a trajectory not run because Ctrl-C stopped the ensemble first
-NOT_RUN = 3
 #: fixed steps: the step's ratio to the dynamics (``solve.step_ratios``) is checked for at most this many distinct
 #: (eps, params) of a sweep (the first ones); the trajectories of the others get NaN
 RATIO_GROUPS = 256
@@ -66,8 +61,9 @@ class Ensemble:
     rows : (n,) int array
         Valid rows of each trajectory.
     status : (n,) int array
-        ``geomint.Solution.status`` of each trajectory, and -5: the start was
-        refused (not finite, or H or S not finite there), 3: not run (Ctrl-C).
+        The ``geomint.Status`` code of each trajectory (``Solution.status``), and
+        -5 ``INVALID_START``: the start was refused (not finite, or H or S not
+        finite there), 3 ``NOT_RUN``: not run (Ctrl-C).
     failed_step : (n,) int array
         The failed step, 0 where none failed.
     messages : tuple of str
@@ -121,7 +117,7 @@ class Ensemble:
     def solution(self, i):
         """Trajectory ``i`` as a ``geomint.Solution``."""
         n = int(self.rows[i])
-        status = int(self.status[i])
+        status = Status(int(self.status[i]))
         return Solution(t=self.t[i, :n].copy(), x=self.x[i, :n].copy(), H=self.H[i, :n].copy(),
                         S=self.S[i, :n].copy(), success=status == 0, status=status, message=self.messages[i],
                         failed_step=int(self.failed_step[i]) or None, n_steps=int(self.n_steps[i]),
@@ -212,7 +208,7 @@ def solve_ensemble(system, X0, t_span, h=None, method=None, *, rtol=None, atol=N
             raise ValueError(f"`{name}` must be an integer >= 1; got {value!r}.")
     threads_given = threads is not None
     threads = numba.config.NUMBA_NUM_THREADS if threads is None else int(threads)
-    X0 = _starts(X0)
+    X0 = check_states(X0, "X0", one=False)
     n = len(X0)
     params = _per_trajectory_params(system, params, n)
     eps = _per_trajectory_eps(system, eps, n)
@@ -221,21 +217,21 @@ def solve_ensemble(system, X0, t_span, h=None, method=None, *, rtol=None, atol=N
         raise ValueError(f"`method` {integrator!r} integrates the {integrator.flows[0]} flow only, so alone it needs "
                          "eps = 0 for every trajectory.")
     integrator.check_system(system)
-    t0, t_end = _check_span(t_span)
-    method_data = integrator.lower(system)
-    check_direction(integrator, method_data, t_span, t0, t_end)
-    t_eval = None if t_eval is None else _check_t_eval(t_eval, t0, t_end)
+    t0, t_end = check_span(t_span)
+    step_data = integrator.lower(system)
+    check_direction(integrator, step_data, t_span, t0, t_end)
+    t_eval = None if t_eval is None else check_t_eval(t_eval, t0, t_end)
     h, control = check_step_or_control(integrator, h, rtol, atol, first_step, max_step, t0, t_end)
     if h is not None and t_eval is None:
-        n_steps = step_count(t0, t_end, h)
-        save_every = _check_save_every(save_every, n_steps)
-        plan = _FixedPlan(t0, t_end, h, n_steps, save_every)
+        grid, n_steps = constant_grid(t0, t_end, h, save_every)
+        save_every = grid.save_every
+        plan = _FixedPlan(t0, t_end, grid)
     else:
         if save_every is not None and (isinstance(save_every, (bool, np.bool_)) or save_every != 1):
             raise ValueError("`save_every` must be 1 or None with adaptive steps (h=None) or t_eval (the rows are "
                              f"the times of t_eval, or the start and the end); got {save_every!r}.")
-        plan = _MarchPlan(t0, *marching(integrator, h, control, t0, t_end, t_eval, False), t_eval)
-    _check_memory(plan.rows * n)
+        plan = _MarchPlan(t0, *landing_control(integrator, h, control, t0, t_end, t_eval, False), t_eval)
+    check_memory(plan.rows * n)
     if backend == "dask":  # each chunk flagged on its worker (``_dask_task`` runs solve_ensemble)
         ensemble = _on_dask(client, system, X0, t_span, integrator, params, eps, progress, chunk,
                             threads if threads_given else 1,
@@ -243,10 +239,10 @@ def solve_ensemble(system, X0, t_span, h=None, method=None, *, rtol=None, atol=N
                                  save_every=save_every))
         _warn([c[0] if c else None for c in ensemble.caveats], stacklevel=3)
         return ensemble
-    ensemble = _run_local(system, X0, integrator, method_data, params, eps, plan, progress, chunk, threads)
+    ensemble = _run_local(system, X0, integrator, step_data, params, eps, plan, progress, chunk, threads)
     if h is None:
         caveat = tolerance_caveat(integrator, RTOL if rtol is None else float(rtol), t_end < t0)
-        ran = ~np.isin(ensemble.status, (INVALID_START, NOT_RUN))
+        ran = ~np.isin(ensemble.status, (Status.INVALID_START, Status.NOT_RUN))
         return _flagged(ensemble, [caveat if caveat and ran[i] else None for i in range(n)])
     ratio, rate = _step_ratios(system, integrator, h, X0, ensemble.x_final, params, eps)
     return _flagged(ensemble, [step_caveat(integrator, h, r, q) for r, q in zip(ratio, rate)], step_ratio=ratio)
@@ -290,7 +286,7 @@ def sweep(system, X0, t_span, h=None, method=None, *, eps=None, params=None, **o
     ``h`` and ``options`` go to ``solve_ensemble`` (``rtol``, ``t_eval``, ``save_every``, ``progress``,
     ``backend``...).  The result's ``eps`` and ``params`` say which point of the grid each trajectory belongs to.
     """
-    X0 = _starts([X0] if np.ndim(X0) == 1 else X0)
+    X0 = check_states([X0] if np.ndim(X0) == 1 else X0, "X0", one=False)
     eps_values = [system.eps] if eps is None else list(_validate.reals("eps", eps))
     param_sets = [system.params] if params is None else [np.asarray(p, dtype=np.float64) for p in params]
     grid = [(e, p, x) for e in eps_values for p in param_sets for x in X0]
@@ -299,18 +295,6 @@ def sweep(system, X0, t_span, h=None, method=None, *, eps=None, params=None, **o
 
 
 # -- input ---------------------------------------------------------------------------------------
-def _starts(X0):
-    try:
-        X = np.array(X0, dtype=np.float64)
-    except (TypeError, ValueError, OverflowError):
-        raise TypeError(f"`X0` must be an array of starts, shape (n, 3); got {X0!r}.") from None
-    if isinstance(X0, (str, bytes)) or np.asarray(X0).dtype.kind not in "iuf":
-        raise TypeError(f"`X0` must be an array of real starts, shape (n, 3); got {X0!r}.")
-    if X.ndim != 2 or X.shape[1] != 3 or X.shape[0] < 1:
-        raise ValueError(f"`X0` must have shape (n, 3) with n >= 1; got shape {X.shape}.")
-    return X
-
-
 def _per_trajectory_params(system, params, n):
     p = system.params
     if params is None:
@@ -364,29 +348,23 @@ _T, _COUNTERS, _CLOCKS = 2, 6, 8
 
 @dataclass(frozen=True)
 class _FixedPlan:
-    """Fixed steps on the grid ``t0 + k h`` (``batch.integrate_batch``, as ``solve``'s fixed-step run)."""
+    """Fixed steps on the grid ``t0 + k h`` (a ``control.Constant`` controller, as ``solve``'s fixed-step run)."""
 
     t0: float
     t_end: float
-    h: float
-    n_steps: int
-    save_every: int
+    grid: object
 
     @property
     def rows(self):
-        return self.n_steps // self.save_every + 2
-
-    def grid(self):
-        h = float(np.copysign(self.h, self.t_end - self.t0))
-        return _driver.Grid(self.t0, h, self.n_steps, (self.t_end - self.t0) - (self.n_steps - 1) * h, self.save_every)
+        return self.grid.n_steps // self.grid.save_every + 2
 
     def start(self, n):
-        return ()  # no per-trajectory clock
+        return (np.tile(_layout.new_clock(self.t0), (n, 1)),)
 
-    def run(self, system, method_data, views, first, stride):
-        p, o, e, st, wo, tt, xx, HH, SS, co, re = views
-        _batch.integrate_batch(system.model, p, o, e, system.hamiltonian, method_data, st, wo, self.n_steps,
-                               self.grid(), tt, xx, HH, SS, co, re, first, stride)
+    def run(self, system, step_data, views, first, stride):
+        p, o, e, st, wo, tt, xx, HH, SS, co, re, cl = views
+        _batch.run_batch(system.model, p, o, e, system.hamiltonian, step_data, self.grid, st, wo, cl,
+                         np.array([self.t_end]), self.grid.n_steps, tt, xx, HH, SS, co, re, first, stride)
 
     def unfinished(self, arrays, part):
         return False
@@ -394,7 +372,7 @@ class _FixedPlan:
     def where_failed(self, i, arrays):
         """``(time the failed step started from, step)`` for the failure message."""
         counters = arrays[_COUNTERS]
-        h = float(np.copysign(self.h, self.t_end - self.t0))
+        h = self.grid.h
         failed = int(counters[i, _layout.FAILED_STEP]) if counters[i, _layout.STATUS] < 0 else 1
         return self.t0 + (max(failed, 1) - 1) * h, h
 
@@ -404,7 +382,8 @@ class _FixedPlan:
 
 @dataclass(frozen=True)
 class _MarchPlan:
-    """Adaptive steps, or fixed steps landing on ``t_eval`` (``batch.march_batch``, as ``solve``'s marching run):
+    """Adaptive steps, or fixed steps landing on ``t_eval`` (a ``control.Control`` controller, as ``solve``'s run
+    landing on stops):
     rows at the stops only."""
 
     t0: float
@@ -423,10 +402,10 @@ class _MarchPlan:
         clocks = np.tile(_layout.new_clock(self.t0, self.control.h), (n, 1))
         return (clocks,)
 
-    def run(self, system, method_data, views, first, stride):
+    def run(self, system, step_data, views, first, stride):
         p, o, e, st, wo, tt, xx, HH, SS, co, re, cl = views
-        _batch.march_batch(system.model, p, o, e, system.hamiltonian, method_data, self.control, st, wo, cl,
-                           self.stops, self.BUDGET, tt, xx, HH, SS, co, re, first, stride)
+        _batch.run_batch(system.model, p, o, e, system.hamiltonian, step_data, self.control, st, wo, cl,
+                         self.stops, self.BUDGET, tt, xx, HH, SS, co, re, first, stride)
 
     def unfinished(self, arrays, part):
         counters, clocks = arrays[_COUNTERS], arrays[_CLOCKS]
@@ -449,9 +428,9 @@ class _MarchPlan:
         return keep
 
 
-def _run_local(system, X0, integrator, method_data, params, eps, plan, progress, chunk, threads):
+def _run_local(system, X0, integrator, step_data, params, eps, plan, progress, chunk, threads):
     n = len(X0)
-    slots = getattr(method_data, "slots", 1)
+    slots = getattr(step_data, "slots", 1)
     states = np.zeros((n, _layout.N_STATE))
     states[:, :3] = np.where(np.isfinite(X0), X0, 0.0)
     states[:, _layout.STATE_ANCHOR] = np.nan  # H at the start (as solve)
@@ -464,28 +443,28 @@ def _run_local(system, X0, integrator, method_data, params, eps, plan, progress,
     else:  # the constant and linear terms of H and S depend on the parameters
         origins = np.array([system._origin(p) for p in params])
     reasons = _refused(system, X0, params)
-    counters[[r is not None for r in reasons], _layout.STATUS] = INVALID_START
+    counters[[r is not None for r in reasons], _layout.STATUS] = Status.INVALID_START
     arrays = (states, works, t, x, H, S, counters, residuals) + plan.start(n)
     raised_by = {}
     threads = max(1, min(threads, chunk))
-    with _user_errors.catching_everywhere() as raised, _interrupts() as interrupted, \
+    with _user_errors.catching_everywhere() as raised, interrupts() as interrupted, \
             ThreadPoolExecutor(threads) as pool:
         for begin in range(0, n, chunk):
             part = slice(begin, min(n, begin + chunk))
             if interrupted:
-                counters[part, _layout.STATUS] = np.where(counters[part, _layout.STATUS] == 0, NOT_RUN,
+                counters[part, _layout.STATUS] = np.where(counters[part, _layout.STATUS] == 0, Status.NOT_RUN,
                                                           counters[part, _layout.STATUS])
                 continue
             snapshot = [a[part].copy() for a in arrays]
             views = [a[part] for a in (params, origins, eps)] + [a[part] for a in arrays]
             while True:
-                list(pool.map(lambda first: plan.run(system, method_data, views, first, threads), range(threads)))
+                list(pool.map(lambda first: plan.run(system, step_data, views, first, threads), range(threads)))
                 if raised or interrupted or not plan.unfinished(arrays, part):
                     break
             if raised:  # a user function raised on a worker thread: rerun the chunk where the hook can count it
                 for array, saved in zip(arrays, snapshot):
                     array[part] = saved
-                raised_by.update(_rerun_serially(system, method_data, plan, params, origins, eps, arrays, part))
+                raised_by.update(_rerun_serially(system, step_data, plan, params, origins, eps, arrays, part))
                 raised.clear()
             elif interrupted and plan.unfinished(arrays, part):
                 going = (counters[part, _layout.STATUS] == _layout.OK)
@@ -495,7 +474,7 @@ def _run_local(system, X0, integrator, method_data, params, eps, plan, progress,
     return _collect(system, integrator, X0, params, eps, plan, arrays, reasons, raised_by)
 
 
-def _rerun_serially(system, method_data, plan, params, origins, eps, arrays, part):
+def _rerun_serially(system, step_data, plan, params, origins, eps, arrays, part):
     """The chunk's trajectories one by one in this thread, each counting its own user-function exceptions."""
     counters = arrays[_COUNTERS]
     raised_by = {}
@@ -506,7 +485,7 @@ def _rerun_serially(system, method_data, plan, params, origins, eps, arrays, par
         views = [a[one] for a in (params, origins, eps)] + [a[one] for a in arrays]
         with _user_errors.catching(counters[i]) as raised:
             while True:
-                plan.run(system, method_data, views, 0, 1)
+                plan.run(system, step_data, views, 0, 1)
                 if raised or not plan.unfinished(arrays, one):
                     break
         if raised:
@@ -534,7 +513,7 @@ def _collect(system, integrator, X0, params, eps, plan, arrays, reasons, raised_
             messages.append(reasons[i])
             x[i, 0], row_count[i] = X0[i], 1
             continue
-        if status[i] == NOT_RUN:
+        if status[i] == Status.NOT_RUN:
             messages.append("Not run: Ctrl-C stopped the ensemble first.")
             x[i, 0], row_count[i] = X0[i], 1
             continue
@@ -542,11 +521,11 @@ def _collect(system, integrator, X0, params, eps, plan, arrays, reasons, raised_
         if status[i] == _layout.USER_RAISED:
             own = system if np.array_equal(params[i], system.params) else None
             h = plan.where_failed(i, arrays)[1]
-            what = (_raised_message(own, x[i, row_count[i] - 1], h, [raised_by.get(i)]) if own is not None else
+            what = (raised_message(own, x[i, row_count[i] - 1], h, [raised_by.get(i)]) if own is not None else
                     f"a user function raised {raised_by.get(i)!r}")
         failed = int(counters[i, _layout.FAILED_STEP]) if status[i] < 0 else None
         t_from, h = plan.where_failed(i, arrays)
-        messages.append(_message(int(status[i]), failed, t[i, :row_count[i]], t_from, h, counters[i],
+        messages.append(run_message(int(status[i]), failed, t[i, :row_count[i]], t_from, h, counters[i],
                                  residuals[i, 0], integrator, what))
     return Ensemble(
         t=t[:, :used], x=x[:, :used], H=H[:, :used], S=S[:, :used], rows=row_count, status=status,

@@ -26,7 +26,12 @@ import math
 import numbers
 
 import numpy as np
+
+from .._kernels import control as _control
+from .._kernels import layout as _layout
 from .._user_errors import UserFunctionError
+from ..results.dense import Hermite
+from .chunks import new_output, new_run_state, run_chunk
 
 
 def relaxed(system, tol, *, terminal=True):
@@ -123,16 +128,24 @@ class Events:
                                  f"x = {np.asarray(x).tolist()}; it must return a finite real number.")
         return values
 
-    def scan(self, t, x, start, stop, interpolant, land):
-        """Look for zeros over the steps ending at rows ``start + 1 .. stop - 1`` of ``t``, ``x``.
+    def scan(self, system, step_data, out, start, stop, anchor):
+        """Look for zeros over the steps ending at rows ``start + 1 .. stop - 1`` of the run's output ``out``
+        (``loop.Output``) of ``step_data`` on ``system``, whose steps keep the energy ``anchor``.
 
-        ``interpolant(n)`` is the dense output on step ``n`` (a function of t); ``land(n, t_event)`` the
-        state a step of the method from row ``n`` lands on at ``t_event`` (or None).  Records every zero
-        found; returns ``(n, t_event, x_event)`` of the zero that ends the run (a terminal event's
-        last allowed occurrence), or None.
+        Zeros are located on steps of the method from the step's start (``land``), else on the step's
+        cubic Hermite interpolant (``step_interpolant``).  Records every zero found; returns
+        ``(n, t_event, x_event)`` of the zero that ends the run (a terminal event's last allowed
+        occurrence), or None.
         """
         if not self.functions:
             return None
+        t, x = out.t, out.x
+
+        def interpolant(n):
+            return step_interpolant(system, out, n)
+
+        def landed(n, s):
+            return land(system, step_data, out, n, s, anchor)
         if self._last is None:
             self._last = self._values(t[start], x[start])
         for n in range(start, stop - 1):
@@ -146,10 +159,10 @@ class Events:
                                                                                      direction == 0)
                 if wanted and not (old[k] == 0 and new[k] == 0):
                     hits.append((self._root(k, t[n], t[n + 1], old[k], new[k], interpolant(n),
-                                            lambda s, n=n: land(n, s)), k))
+                                            lambda s, n=n: landed(n, s)), k))
             hits.sort(reverse=bool(t[n + 1] < t[n]))
             for t_event, k in hits:
-                state = land(n, t_event)
+                state = landed(n, t_event)
                 if state is None:
                     state = interpolant(n)(t_event)
                 self.t_events[k].append(t_event)
@@ -195,3 +208,30 @@ class Events:
 
 def _name(g):
     return getattr(g, "__name__", type(g).__name__)
+
+
+def fields(system, x):
+    """The field at each state of ``x``, shape (m, 3)."""
+    return np.asarray(system.xi(x), dtype=np.float64).reshape(-1, 3)
+
+
+def step_interpolant(system, out, n):
+    """The cubic Hermite interpolant on the step from row ``n`` to row ``n + 1``."""
+    x = out.x[n:n + 2]
+    return Hermite(out.t[n:n + 2], x, fields(system, x)).step(0)
+
+
+def land(system, step_data, out, n, t, anchor):
+    """The state one step of the method from row ``n`` of ``out`` lands on at ``t``, the step keeping the energy
+    ``anchor`` (None if that step fails): a fixed step landing on the stop ``t``, through the run's loop."""
+    if t == out.t[n]:
+        return out.x[n].copy()
+    one = new_output(2)
+    work, state = new_run_state(step_data, out.x[n])
+    state[_layout.STATE_ANCHOR] = anchor
+    control = _control.Control(False, t - out.t[n], 1.0, 1.0, math.inf, _layout.NO_ESTIMATE, 1.0, 1.0, False)
+    clock = _layout.new_clock(out.t[n])
+    run_chunk(system, step_data, control, state, work, clock, np.array([t]), 4, one)
+    if one.counters[_layout.STATUS] != _layout.OK or one.counters[_layout.ROWS] != 2:
+        return None
+    return one.x[1].copy()

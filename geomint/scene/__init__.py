@@ -65,7 +65,7 @@ The package, module by module:
 """
 
 
-from .checks import INTERRUPTED, MAX_TRAJECTORIES, SceneError
+from .checks import MAX_TRAJECTORIES, SceneError
 from .run import ENSEMBLE_STEPS, CheckpointError, SceneResult, run_scene, runs_together, solve_together, versions
 from .schema import FIGURES, OBSERVABLES, Built, Scene, load_scene
 from .toml import bundled_scenes, read_toml, to_toml
@@ -74,7 +74,7 @@ from .toml import bundled_scenes, read_toml, to_toml
 load = load_scene
 
 __all__ = [
-    "ENSEMBLE_STEPS", "FIGURES", "INTERRUPTED", "MAX_TRAJECTORIES", "OBSERVABLES", "Built", "CheckpointError", "Scene",
+    "ENSEMBLE_STEPS", "FIGURES", "MAX_TRAJECTORIES", "OBSERVABLES", "Built", "CheckpointError", "Scene",
     "SceneError", "SceneResult", "bundled_scenes", "load", "load_scene", "read_toml", "run_scene", "runs_together",
     "solve_together", "to_toml", "versions",
 ]

@@ -10,9 +10,6 @@ import numpy as np
 from .. import _validate
 from ..systems import CATALOGUE
 
-#: status of a run stopped by Ctrl-C (``geomint.Solution.status``)
-INTERRUPTED = 2  # geomint.Status.INTERRUPTED once run/status.py lands
-
 
 class SceneError(ValueError):
     """A scene that cannot run: names the file, the key and the problem."""

@@ -22,9 +22,9 @@ from ..results import io as _io
 from ..results import solution as _solution
 from ..results.solution import AccuracyWarning
 from ..integrators.data import method_to_data
-from ..run.ensemble import INVALID_START, NOT_RUN, solve_ensemble
+from ..run.ensemble import solve_ensemble
 from ..run.solve import solve
-from .checks import INTERRUPTED
+from ..run.status import Status
 from .schema import OBSERVABLES, Scene
 
 #: the most steps of a trajectory run together with others through ``solve_ensemble`` (and about the steps of
@@ -128,7 +128,7 @@ def run_scene(scene, progress=None, checkpoint=None, resume=False, before_steps=
         raise KeyboardInterrupt
     records = {"rows": run.rows, "t": run.t, **{name: np.asarray(OBSERVABLES[name][1](system, run))
                                                  for name in scene.record}}
-    partial = len(solutions) < len(states) or solutions[-1].status == INTERRUPTED
+    partial = len(solutions) < len(states) or solutions[-1].status == Status.INTERRUPTED
     return SceneResult(scene=scene, system=system, method=method, solutions=solutions, records=records, wall=wall,
                        partial=partial)
 
@@ -163,9 +163,9 @@ def _together(scene, system, method, states, progress):
     ensemble = solve_together(system, states, span, scene.h, method=method, save_every=save_every,
                               progress=None if progress is None else report, chunk=max(1, ENSEMBLE_STEPS // steps))
     seconds = time.perf_counter() - started
-    for i in np.flatnonzero(ensemble.status == INVALID_START):
+    for i in np.flatnonzero(ensemble.status == Status.INVALID_START):
         solve(system, states[i], span, scene.h, method=method, save_every=save_every)  # raises solve's error
-    ran = int(np.count_nonzero(ensemble.status != NOT_RUN))  # chunks run in order: the first ``ran``
+    ran = int(np.count_nonzero(ensemble.status != Status.NOT_RUN))  # chunks run in order: the first ``ran``
     solutions = [ensemble.solution(i) for i in range(ran)]
     rows = ensemble.rows[:ran]
     used = max(1, int(rows.max(initial=0)))
@@ -218,10 +218,10 @@ def _one_by_one(scene, system, method, states, progress, checkpoint):
             break
         wall.append(time.perf_counter() - start)
         solutions.append(sol)
-        if folder is not None and sol.status != INTERRUPTED:
+        if folder is not None and sol.status != Status.INTERRUPTED:
             _io.save(sol, folder / f"{i}.npz")
             running.unlink(missing_ok=True)
-        if sol.status == INTERRUPTED:
+        if sol.status == Status.INTERRUPTED:
             break
     return solutions, wall
 

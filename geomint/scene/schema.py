@@ -16,7 +16,8 @@ from .. import _validate
 from ..analysis import level_set as _level_set
 from ..integrators.data import MethodDataError, method_from_data, method_to_data
 from ..model.system import MetriplecticSystem
-from ..run.solve import MAX_STEPS, step_count
+from ..run.arguments import MAX_STEPS
+from ..run.controller import step_count
 from ..systems import CATALOGUE
 from .checks import _EXPRESSION_KEYS, _KEY_OF, _LAYOUT, SceneError, _Checker, _describe, _unknown, _with_options
 from .toml import plain, read_toml, scene_file

@@ -1,131 +1,46 @@
-"""The leaf steps: classical Runge-Kutta and the metriplectic discrete-gradient step.
+"""The Newton solve of an implicit step to round-off: predictor, Jacobian workspace, acceptance rule.
 
-Each returns a ``layout.StepResult``.  ``H`` and ``S`` in it are the invariants
-at the new state where the step knows them (the discrete-gradient step
-evaluates them to check them) and NaN where it does not (RK4: the driver
-evaluates them only when it saves a state).
-
-Every step lands with ``advance``: compensated (Kahan) summation, in which
-``comp`` carries the rounding error of the state from step to step, so that
-round-off in the state does not random-walk.
+``newton`` solves ``x' = x + h F(x, x')`` (``discrete_field``) by simplified
+Newton with the matrix ``I - h/2 D xi``, built from a Jacobian kept in the
+slot's workspace (``layout.W_*``) across steps; ``predictor`` extrapolates the
+start from the slot's last three increments, ``attempts`` the starts a step
+tries without one (``dg_step.discrete_gradient_step`` says when).  A root is
+accepted only when it keeps H and S to ``GUARD`` ulps of their terms
+(``roundoff.kept``).
 """
-
 import numpy as np
-from numba import njit, types
-from numba.extending import overload
 
-from .discrete_gradient import discrete_field, origin_terms, term_scale
-from .field import field, field_inlined, non_finite_culprit
-from .jit import hot, inner
+from .discrete_field import discrete_field
+from .field import field, non_finite_culprit
+from .jit import inner
 from .layout import (
-    NEWTON_FAILED, NON_FINITE, OK, UNKNOWN, W_DX1, W_DX2, W_DX3, W_H, W_HISTORY, W_JACOBIAN, W_JACOBIAN_VALID,
-    Damped, StepResult, Undamped,
+    EPS, NEWTON_FAILED, NON_FINITE, OK, SQRT_EPS, UNKNOWN, W_DX1, W_DX2, W_DX3, W_H, W_HISTORY, W_JACOBIAN,
+    W_JACOBIAN_VALID,
 )
-from .vec3 import ZERO, abs_dot, add, axpy, is_finite, load, norm_inf, same, scale, solve, sub
+from .roundoff import kept, origin_terms, term_scale
+from .runge_kutta import rk4_increment
+from .vec3 import abs_dot, add, advance, axpy, is_finite, load, norm_inf, same, scale, solve, sub
 
-EPS = np.finfo(np.float64).eps
-SQRT_EPS = np.sqrt(EPS)
 #: a root found to round-off must keep H and S to this many ulps of their terms; a far-away
 #: spurious root (a step far beyond the time scale) does not
 GUARD = 1024.0
+
+
 #: an accepted iterate keeps H to its anchor within this many ulps of its terms: twice the bound below which
 #: the discrete-gradient correction is round-off and skipped (``discrete_gradient.gonzalez``)
 ACCEPT_ULPS = 4.0
+
+
 #: and does not raise S by more than this many ulps of its terms
 ACCEPT_S_ULPS = 2.0
+
+
 #: a first contraction rate above this makes the slot take a fresh Jacobian at its next step
 THETA_REFRESH = 1e-2
 
 
-@njit(inline="always")
-def advance(x, comp, dx):
-    """``x + dx`` by compensated summation; returns ``(x_new, comp_new)``.
-
-    Kahan, Comm. ACM 8 (1965) 40, doi:10.1145/363707.363723; as in Hairer's
-    geometric integrators.  ``x + comp`` is the state carried to extra precision.
-    """
-    y = sub(dx, comp)
-    x_new = add(x, y)
-    return x_new, sub(sub(x_new, x), y)
-
-
-def _rk4_increment_of(xi):
-    def increment(model, eps, hamiltonian, buf, x, h):
-        """The classical Runge-Kutta increment ``h (k1 + 2 k2 + 2 k3 + k4) / 6``, order 4 (Hairer,
-        Norsett, Wanner, *Solving ODEs I*, section II.1).  Four field evaluations, from one call site of
-        ``xi`` (a loop over the stages: an inlined field is compiled once, not four times)."""
-        k1 = k2 = k3 = k4 = y = x
-        for stage in range(4):
-            k = xi(model, eps, hamiltonian, buf, y)
-            if stage == 0:
-                k1 = k
-            elif stage == 1:
-                k2 = k
-            elif stage == 2:
-                k3 = k
-            else:
-                k4 = k
-            y = axpy(h if stage == 2 else 0.5 * h, k, x)
-        return scale(h / 6.0, add(add(k1, k4), scale(2.0, add(k2, k3))))
-    return increment
-
-
-#: the RK4 increment as a call (starts and error estimates of implicit steps)
-rk4_increment = inner(_rk4_increment_of(field))
-#: inlined, stages and all, into ``rk4_step``: the explicit baseline runs at the cost of its field evaluations
-_rk4_increment_inlined = njit(inline="always")(_rk4_increment_of(field_inlined))
-
-
-@hot
-def rk4_step(model, eps, hamiltonian, buf, x, comp, h):
-    """Classical Runge-Kutta, order 4: the generic, structure-blind baseline.  Four field evaluations,
-    no H or S."""
-    x_new, comp_new = advance(x, comp, _rk4_increment_inlined(model, eps, hamiltonian, buf, x, h))
-    if is_finite(x_new):
-        return StepResult(x_new, comp_new, np.nan, np.nan, OK, 0, 4, 0.0, UNKNOWN)
-    return StepResult(x_new, comp_new, np.nan, np.nan, NON_FINITE, 0, 4, 0.0,
-                      _stage_culprit(model, eps, hamiltonian, buf, x, h))
-
-
-def damped_eps(damped, model, eps, buf, x, h):
-    """``(eps', field evaluations)``: ``eps`` times ``damping_factor`` where ``damped``, else ``eps``.
-
-    ``damped`` is a ``layout.Damped``/``Undamped`` marker (a standalone step,
-    or a stage of a program without damped stages: ``composition.stage_damped``),
-    whose type decides when the step is compiled, so an undamped run does not
-    compile the damping factor; or a flag read at run time (a stage of a program
-    with damped stages).
-    """
-    on = damped.on if isinstance(damped, (Damped, Undamped)) else bool(damped)
-    return (eps * damping_factor(model, eps, buf, x, h), 4) if on else (eps, 0)
-
-
-@overload(damped_eps, inline="always")
-def _damped_eps_typed(damped, model, eps, buf, x, h):
-    marker = getattr(damped, "instance_class", None) if isinstance(damped, types.BaseNamedTuple) else None
-    if marker is Undamped:
-        return lambda damped, model, eps, buf, x, h: (eps, 0)
-    if marker is Damped:
-        return lambda damped, model, eps, buf, x, h: (eps * damping_factor(model, eps, buf, x, h), 4)
-    return lambda damped, model, eps, buf, x, h: (eps * damping_factor(model, eps, buf, x, h), 4) if damped else (
-        eps, 0)
-
-
 @inner
-def _stage_culprit(model, eps, hamiltonian, buf, x, h):
-    """The user function that is not finite at the first RK4 stage point where one is not (0 if none):
-    a stage point can lie where the user's functions are undefined though x and x' do not."""
-    y = x
-    for c in (0.5, 0.5, 1.0, 0.0):
-        culprit = non_finite_culprit(model, buf, y, hamiltonian) if is_finite(y) else UNKNOWN
-        if culprit != UNKNOWN or c == 0.0:
-            return culprit
-        y = axpy(c * h, field(model, eps, hamiltonian, buf, y), x)
-    return UNKNOWN
-
-
-@inner
-def _jacobian(model, eps, hamiltonian, buf, x, f0):
+def jacobian(model, eps, hamiltonian, buf, x, f0):
     """Columns of ``D xi(x)`` by forward differences (3 field calls); ``f0 = xi(x)``."""
     size = norm_inf(x)
     delta = SQRT_EPS * (size if size > 0.0 else 1.0)
@@ -136,30 +51,7 @@ def _jacobian(model, eps, hamiltonian, buf, x, f0):
 
 
 @inner
-def damping_factor(model, eps, buf, x, h):
-    """``phi = 1 / sqrt(1 + (h kappa / 2)^2)``, ``kappa = |D (eps xi_g)(x)|_inf`` (4 gradient calls).
-
-    ``eps xi_g`` is differentiated as a whole, so that ``eps`` scales the
-    product before it can underflow (states of size 1e-150 with eps ~ 1e150).
-
-    Multiplying the dissipation by ``phi`` (still exact in H, monotone in S)
-    makes the midpoint-type step damp a dissipative mode of rate ``lambda ~ kappa``
-    by ``(1 - w) / (1 + w)``, ``w = (h lambda / 2) phi -> 1`` as ``h kappa -> oo``,
-    instead of reflecting it; ``phi = 1 + O(h^2)`` keeps order 2.
-    """
-    g0 = field(model, eps, False, buf, x)
-    c0, c1, c2 = _jacobian(model, eps, False, buf, x, g0)
-    row_sum = max(
-        abs(c0[0]) + abs(c1[0]) + abs(c2[0]), abs(c0[1]) + abs(c1[1]) + abs(c2[1]), abs(c0[2]) + abs(c1[2]) + abs(c2[2])
-    )
-    z = 0.5 * h * row_sum
-    if not np.isfinite(z):
-        return 1.0
-    return 1.0 / np.sqrt(1.0 + z * z)
-
-
-@inner
-def _store_jacobian(work, c0, c1, c2):
+def store_jacobian(work, c0, c1, c2):
     for k in range(3):
         work[W_JACOBIAN + k] = c0[k]
         work[W_JACOBIAN + 3 + k] = c1[k]
@@ -168,7 +60,7 @@ def _store_jacobian(work, c0, c1, c2):
 
 
 @inner
-def _newton_matrix(work, h):
+def newton_matrix(work, h):
     """Rows of ``I - h/2 D xi`` from the slot's stored Jacobian (columns)."""
     a = -0.5 * h
     j = W_JACOBIAN
@@ -201,15 +93,7 @@ def _residual_matrix(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h,
 
 
 @inner
-def _kept(old, new, terms, ulps, direction):
-    """``new - old`` within ``ulps`` of ``terms``: in absolute value (``direction = 0``), or not
-    rising along ``direction`` (the sign of ``h``: S must not rise forward, not fall backward)."""
-    change = direction * (new - old) if direction != 0.0 else abs(new - old)
-    return change <= ulps * EPS * terms
-
-
-@inner
-def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, dx, m):
+def newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, dx, m):
     """Solve ``x' = x + h F(x, x')`` from the increment ``dx`` with the Newton matrix ``m``.
 
     Returns ``(status, x', comp', H(x'), S(x'), iterations, evaluations, r, culprit)`` with ``r`` the
@@ -286,11 +170,11 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
         # the round-off of the increment itself: of |dx| and of h F (terms |dgH| (|Jbar| + eps |dgH| |dgS|))
         resolution = EPS * (norm_inf(dx) + abs(h) * scales[1] * (scales[0] + eps * scales[1] * scales[2]))
         converged = error <= 4.0 * resolution
-        exact = _kept(H_x, H_new, terms_h, ACCEPT_ULPS, 0.0) and _kept(S_x, S_new, terms_s, s_ulps, s_direction)
+        exact = kept(H_x, H_new, terms_h, ACCEPT_ULPS, 0.0) and kept(S_x, S_new, terms_s, s_ulps, s_direction)
         # a spurious root: the invariants the scheme guarantees are far off, by more than the remaining
         # correction explains (a component of dx much smaller than |dx| is still being resolved)
-        if converged and not (_kept(H_x, H_new, terms_h + 8.0 * abs_dot(dg_h, correction) / (GUARD * EPS), GUARD, 0.0)
-                              and _kept(S_x, S_new, terms_s + 8.0 * abs_dot(dg_s, correction) / (GUARD * EPS), GUARD,
+        if converged and not (kept(H_x, H_new, terms_h + 8.0 * abs_dot(dg_h, correction) / (GUARD * EPS), GUARD, 0.0)
+                              and kept(S_x, S_new, terms_s + 8.0 * abs_dot(dg_s, correction) / (GUARD * EPS), GUARD,
                                         s_direction)):
             break
         theta = error / previous
@@ -304,7 +188,7 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
                 load(buf, x_next)
                 H_next, S_next = model.H(buf, model.params), model.S(buf, model.params)
                 evaluations += 1
-            if _kept(H_x, H_next, terms_h, ACCEPT_ULPS, 0.0) and _kept(S_x, S_next, terms_s, s_ulps, s_direction):
+            if kept(H_x, H_next, terms_h, ACCEPT_ULPS, 0.0) and kept(S_x, S_next, terms_s, s_ulps, s_direction):
                 return OK, x_next, comp_next, H_next, S_next, iteration, evaluations, max(theta, first_theta), UNKNOWN
         stalled = converged or error >= 0.5 * best
         floor = 4.0 * resolution + 2.0 * abs(h) * noise
@@ -323,7 +207,7 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, 
 
 
 @inner
-def _predictor(work):
+def predictor(work):
     """The increment extrapolated from the slot's last (up to) three of the same ``h``:
     ``dx_1``, ``2 dx_1 - dx_2`` or ``3 dx_1 - 3 dx_2 + dx_3``, error O(h^2), O(h^3), O(h^4)."""
     d1 = (work[W_DX1], work[W_DX1 + 1], work[W_DX1 + 2])
@@ -337,7 +221,7 @@ def _predictor(work):
 
 
 @inner
-def _remember(work, dx, h):
+def remember(work, dx, h):
     same = work[W_H] == h and work[W_HISTORY] > 0.0
     for k in range(3):
         work[W_DX3 + k] = work[W_DX2 + k]
@@ -359,10 +243,10 @@ def seed_predictor(work, dx, h):
 
 
 @inner
-def _attempts(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, work, first):
+def attempts(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, work, first):
     """The starts a step tries when it has no extrapolated one, or when that failed (``first = 1``), in turn:
     a fresh Jacobian and the linearly implicit start; the explicit RK4 increment; a fresh Jacobian with the
-    step anchored to H(x_n).  Returns ``_newton``'s tuple and the attempt that ended it."""
+    step anchored to H(x_n).  Returns ``newton``'s tuple and the attempt that ended it."""
     iterations = 0
     evaluations = 0
     target = H_x
@@ -374,14 +258,14 @@ def _attempts(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x
             evaluations += 4
         else:
             f0 = field(model, eps, hamiltonian, buf, x)
-            c0, c1, c2 = _jacobian(model, eps, hamiltonian, buf, x, f0)
-            _store_jacobian(work, c0, c1, c2)
+            c0, c1, c2 = jacobian(model, eps, hamiltonian, buf, x, f0)
+            store_jacobian(work, c0, c1, c2)
             evaluations += 4
             dx = _start(work, h, f0)
             if attempt == 3:
                 target = model.H(load(buf, x), model.params)
-        status, x_new, comp_new, H_new, S_new, it, ev, rate, culprit = _newton(
-            kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, target, S_x, h, dx, _newton_matrix(work, h)
+        status, x_new, comp_new, H_new, S_new, it, ev, rate, culprit = newton(
+            kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, target, S_x, h, dx, newton_matrix(work, h)
         )
         iterations += it
         evaluations += ev
@@ -390,68 +274,12 @@ def _attempts(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x
     return status, x_new, comp_new, H_new, S_new, iterations, evaluations, rate, culprit, attempt
 
 
-@hot
-def discrete_gradient_step(kind, max_iter, damped, compensated, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x,
-                           h, work):
-    """One metriplectic discrete-gradient step ``x' = x + h F(x, x')`` (``discrete_field``), solved to round-off.
-
-    ``H_x`` is the energy the step keeps: the driver passes H(x0), not H(x_n),
-    so that the discrete-gradient identity ``dgH . dx = H(x') - H_x`` pulls
-    every step back onto the initial level set and the rounding of the states
-    does not random-walk the energy.  ``S_x`` is S(x_n).  With ``damped`` (``damped_eps``) the
-    dissipation is scaled by ``damping_factor`` (stiff problems: the
-    midpoint-type step then damps the fast mode instead of reflecting it).
-
-    Simplified Newton (``_newton``): the matrix ``I - h/2 D xi`` is built from a
-    Jacobian kept in the slot's workspace ``work`` (``layout.W_*``) across steps
-    and refreshed when the iteration contracts slowly (``THETA_REFRESH``), and
-    the start is the increment extrapolated from the slot's last three
-    (error O(h^4)).  Without a history (first step, a new ``h``) the Jacobian
-    is taken at ``x`` and the start is the linearly implicit midpoint predictor
-    ``(I - h/2 D xi)^-1 h xi(x)``.  A failed attempt is retried that way; then
-    from the explicit RK4 increment (O(h^5) from the flow, so O(h^3) from the
-    root: it converges where a step near the time scale defeats the linear
-    predictor, as a composition's long backward sub-step can); if that fails
-    too, once more with the step anchored to H(x_n) instead of H(x0).  Why: near an equilibrium a step moves by ``|dx| << |x|``, and
-    removing an energy offset of a few ulps (``|H(x_n) - H(x0)|``) would need a
-    discrete-gradient correction ~ ulp / |dx| that is noise; the un-anchored
-    step keeps ``H(x') = H(x_n)`` to round-off, and later steps, anchored
-    again, take the offset back once they move.
-    """
-    if not compensated:
-        comp = ZERO
-    eps, evaluations = damped_eps(damped, model, eps, buf, x, h)
-    fresh = not (work[W_HISTORY] > 0.0 and work[W_H] == h and work[W_JACOBIAN_VALID] > 0.0)
-    attempt = 0
-    status, iterations = NEWTON_FAILED, 0
-    if not fresh:  # the usual step: the extrapolated start with the slot's Newton matrix
-        status, x_new, comp_new, H_new, S_new, iterations, ev, rate, culprit = _newton(
-            kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, _predictor(work),
-            _newton_matrix(work, h))
-        evaluations += ev
-    if fresh or status == NEWTON_FAILED:
-        status, x_new, comp_new, H_new, S_new, it, ev, rate, culprit, attempt = _attempts(
-            kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, work, 0 if fresh else 1)
-        iterations += it
-        evaluations += ev
-        fresh = True
-    if status != OK:
-        work[W_HISTORY] = 0.0
-        return StepResult(x_new, comp_new, H_new, S_new, status, iterations, evaluations, rate, culprit)
-    _remember(work, sub(x_new, x), h)
-    if rate > THETA_REFRESH and not fresh:
-        work[W_JACOBIAN_VALID] = 0.0  # the Jacobian has gone stale: a fresh one next step
-    if not compensated:
-        comp_new = ZERO
-    return StepResult(x_new, comp_new, H_new, S_new, OK, iterations, evaluations, float(attempt), UNKNOWN)
-
-
 @inner
 def _start(work, h, f0):
     """The linearly implicit midpoint increment ``(I - h/2 D xi)^-1 h xi(x)`` (explicit Euler where
     that matrix is nearly singular)."""
     euler = scale(h, f0)
-    dx = solve(_newton_matrix(work, h), euler)
+    dx = solve(newton_matrix(work, h), euler)
     if not (norm_inf(dx) <= 4.0 * norm_inf(euler)):
         return euler
     return dx

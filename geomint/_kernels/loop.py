@@ -1,0 +1,169 @@
+"""THE step loop: every run of every method, fixed or adaptive, goes through ``run``.
+
+``run`` attempts steps from the state in ``state`` towards ``stops``; where the
+next step goes is its controller's (``control.Constant`` for fixed steps on a
+grid, ``control.Control`` for adaptive steps or fixed steps landing on stops),
+chosen by the controller's type when ``run`` is compiled.  Each accepted step
+is checked (finite state, H and S finite where evaluated, no user function
+raised); a failed step stops the run with the last good state saved.
+"""
+
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from .._cache import CACHE
+from .composition import pull_back
+from .control import FAILED_FACTOR, PULL_BACK_ITER, accept, attempt, now, on_rejection, propose, traits
+from .field import non_finite_culprit
+from .jit import inner
+from .layout import (
+    C_COUNT, C_H, C_REACH, C_STOP, C_T, CULPRIT, EPS, FAILED_STEP, FIELD_EVALUATIONS, FULL_STEP_RISES,
+    SAFEGUARD_FIRED, SUB_STEP_RISES, NEWTON_FAILED, NEWTON_ITERATIONS, NON_FINITE, OK, PROJECTION_FAILED, RAISED,
+    REJECTED, ROWS, STATE_ANCHOR, STATE_COMP, STATE_S, STATE_X, STATUS, STEP_TOO_SMALL, STEPS, USER_RAISED,
+)
+from .vec3 import flush_tiny, is_finite, load, same
+
+#: the output arrays: saved times, states, H, S; ``counters`` (``layout`` codes); the last residual
+Output = namedtuple("Output", "t x H S counters residual")
+
+
+@inner
+def _save(out, t, x, H_x, S_x):
+    row = out.counters[ROWS]
+    out.t[row] = t
+    out.x[row, 0], out.x[row, 1], out.x[row, 2] = x
+    out.H[row] = H_x
+    out.S[row] = S_x
+    out.counters[ROWS] = row + 1
+
+
+@njit(cache=CACHE, error_model="numpy")
+def run(model, eps, hamiltonian, method, control, state, work, clock, stops, budget, out):
+    """At most ``budget`` attempted steps towards ``stops[clock[C_STOP]:]``, rows to ``out`` until it is full.
+
+    ``state`` (``layout.STATE_*``) holds the state, its compensation (the
+    rounding error carried by compensated summation, ``vec3.advance``), the
+    energy every step is anchored to (NaN: take H at the first state) and S at
+    the state; ``clock`` (``layout.C_*``, ``layout.new_clock``) where the
+    controller stands; ``work`` the method's workspace (``layout.WORK`` floats
+    per slot).  All are updated in place and carried from call to call: the
+    first call saves the initial state as row 0.
+
+    ``out.counters`` (``layout``): steps, Newton iterations, field evaluations,
+    rejected attempts; a failure sets ``STATUS``, ``FAILED_STEP`` (accepted
+    steps + 1) and ``CULPRIT`` (the user function that gave a non-finite value,
+    when known), and saves the last good state if it was not saved;
+    ``out.residual[0]`` holds the last Newton correction.  ``RAISED`` counts
+    the exceptions user functions raised (``geomint._user_errors``): a step
+    during which it became non-zero fails.  A ``control.Counting`` run also counts S rises
+    (``layout.SUB_STEP_RISES`` ...).  Components below ``FLUSH * |x|_inf``
+    are set to zero after each step (``vec3.flush_tiny``).
+
+    Callers: ``geomint.run.chunks`` (chunks of attempts between progress
+    reports and Ctrl-C, for ``solve`` and the landing steps of events),
+    ``batch.run_batch`` and ``geomint.studies.S_rise_statistics``; they have
+    validated every argument.
+    """
+    counters = out.counters
+    buf = np.empty(3)
+    p = model.params
+    x = (state[STATE_X], state[STATE_X + 1], state[STATE_X + 2])
+    comp = (state[STATE_COMP], state[STATE_COMP + 1], state[STATE_COMP + 2])
+    if counters[ROWS] == 0:
+        load(buf, x)
+        H0 = model.H(buf, p)
+        if np.isnan(state[STATE_ANCHOR]):
+            state[STATE_ANCHOR] = H0
+        state[STATE_S] = model.S(buf, p)
+        _save(out, clock[C_T], x, H0, state[STATE_S])
+    anchor = state[STATE_ANCHOR]
+    S_x = state[STATE_S]
+    H_x = np.nan  # H at x, evaluated when the anchor's reach is short of 1
+    adaptive, lazy, period, exponent, rise = traits(control)  # rise >= 0: S rises counted (``control.Counting``)
+    countdown = period - int(clock[C_COUNT]) % period if period > 0 else 0  # saving when it is 1
+    after_rejection = False
+    streak_h, streak_err = 0.0, 0.0  # the first rejected attempt of the current streak
+    steps, iterations, evaluations, rejected, residual = 0, 0, 0, 0, out.residual[0]
+    attempts = 0
+    while clock[C_STOP] < stops.shape[0] and counters[ROWS] < out.t.shape[0] and attempts < budget:
+        attempts += 1
+        t_now = now(control, clock)
+        target = stops[int(clock[C_STOP])]
+        h, landing = propose(control, clock, t_now, target)
+        H_target = anchor
+        if adaptive and clock[C_REACH] < 1.0:
+            if np.isnan(H_x):
+                H_x = model.H(load(buf, x), p)
+            H_target = H_x + clock[C_REACH] * (anchor - H_x)
+        r, err, rises, fired = attempt(control, method, model, eps, hamiltonian, buf, x, comp, H_target, S_x, h, work)
+        iterations += r.iterations
+        evaluations += r.evaluations
+        residual = r.residual
+        status, culprit = r.status, r.culprit
+        if counters[RAISED] != 0:  # a user function raised inside the step: its values were garbage
+            status = USER_RAISED
+        x_new, comp_new = flush_tiny(r.x, r.comp)
+        H_new, S_new = r.H, r.S
+        saving = landing or countdown == 1
+        if status == OK and not is_finite(x_new):
+            status = NON_FINITE
+        if lazy:  # H and S only where saved, or where the step knows S
+            evaluate = (saving or not np.isnan(S_new)) and (np.isnan(H_new) or not same(x_new, r.x))
+        else:
+            evaluate = np.isnan(H_new) or np.isnan(S_new) or not same(x_new, r.x)
+        if status == OK and evaluate:
+            load(buf, x_new)
+            H_new, S_new = model.H(buf, p), model.S(buf, p)
+        if status == OK and (saving or not lazy) and not (np.isfinite(H_new) and np.isfinite(S_new)):
+            status = NON_FINITE
+        if adaptive:
+            resolution = 16.0 * EPS * max(abs(t_now), abs(target))
+            if status == OK and not err <= 1.0:  # rejected (a NaN estimate too)
+                streak_h, streak_err = on_rejection(clock, h, err, exponent, streak_h, streak_err)
+                rejected += 1
+                after_rejection = True
+                if streak_h == 0.0 or abs(clock[C_H]) > resolution:
+                    continue
+                status = STEP_TOO_SMALL
+            if status in (NEWTON_FAILED, PROJECTION_FAILED, NON_FINITE) and abs(h) * FAILED_FACTOR > resolution:
+                clock[C_H] = h * FAILED_FACTOR
+                rejected += 1
+                after_rejection = True
+                continue
+        if status != OK:
+            if status == NON_FINITE and culprit == 0:
+                culprit = non_finite_culprit(model, buf, x_new if is_finite(x_new) else x, hamiltonian)
+            counters[STATUS] = status
+            counters[FAILED_STEP] = counters[STEPS] + steps + 1
+            counters[CULPRIT] = culprit
+            if out.t[counters[ROWS] - 1] != t_now:  # the last good state was not saved yet
+                load(buf, x)
+                H_last = model.H(buf, p)
+                _save(out, t_now, x, H_last, model.S(buf, p) if lazy else S_x)
+            break
+        if adaptive and H_target != anchor:  # the step kept (nearly) its own energy: back onto the anchor's
+            x_new, H_new, S_new, ev = pull_back(model, buf, x_new, H_new, S_new, anchor, max(S_x, S_new),
+                                                PULL_BACK_ITER)
+            evaluations += ev
+        if rise >= 0.0:
+            counters[SUB_STEP_RISES] += rises
+            counters[SAFEGUARD_FIRED] += fired
+            counters[FULL_STEP_RISES] += S_new - S_x > rise * EPS * max(abs(S_x), abs(S_new))
+        t_new = accept(control, clock, t_now, h, err, landing, target, exponent, after_rejection)
+        after_rejection = False
+        streak_h = 0.0
+        x, comp, S_x, H_x = x_new, comp_new, S_new, H_new
+        steps += 1
+        countdown = period if saving else countdown - 1
+        if saving:
+            _save(out, t_new, x, H_new, S_new)
+    counters[STEPS] += steps
+    counters[NEWTON_ITERATIONS] += iterations
+    counters[FIELD_EVALUATIONS] += evaluations
+    counters[REJECTED] += rejected
+    out.residual[0] = residual
+    state[STATE_X], state[STATE_X + 1], state[STATE_X + 2] = x
+    state[STATE_COMP], state[STATE_COMP + 1], state[STATE_COMP + 2] = comp
+    state[STATE_S] = S_x

@@ -1,0 +1,53 @@
+"""One step of a lowered method (its step data, ``layout``), the step chosen by the data's type.
+
+``step(method, ...)`` picks the step by the *type* of ``method``
+(``layout.RungeKutta4``, ``layout.DiscreteGradientStep``,
+``layout.ComposedStep``, ``layout.EmbeddedPairStep``) when the loop is
+compiled, so a run compiles only what it uses; under ``NUMBA_DISABLE_JIT=1``
+the same choice is made in Python.
+"""
+from numba import njit
+from numba.extending import overload
+
+from .composition import composed_step
+from .dg_step import discrete_gradient_step
+from .layout import ComposedStep, DiscreteGradientStep, EmbeddedPairStep, RungeKutta4
+from .runge_kutta import pair_step, rk4_step
+
+
+@njit(inline="always")
+def _rk4(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
+    return rk4_step(model, eps, hamiltonian, buf, x, comp, h)
+
+
+@njit(inline="always")
+def _discrete_gradient(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
+    return discrete_gradient_step(method.kind, method.max_iter, method.damped, method.compensated, method.coeffs, model,
+                                  eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work)
+
+
+@njit(inline="always")
+def _composed(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
+    return composed_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work, 0.0)[0]
+
+
+@njit(inline="always")
+def _pair(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
+    return pair_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work, False)[0]
+
+
+_STEPS = {RungeKutta4: _rk4, DiscreteGradientStep: _discrete_gradient, ComposedStep: _composed,
+          EmbeddedPairStep: _pair}
+
+
+def step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
+    """One step of ``method`` from ``x`` (a ``layout.StepResult``); ``H_anchor`` is H(x0), ``S_x`` S(x)."""
+    return _STEPS[type(method)](method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work)
+
+
+@overload(step, inline="always")
+def _step_typed(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
+    impl = _STEPS[method.instance_class]
+    return lambda method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work: impl(
+        method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work
+    )

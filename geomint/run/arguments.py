@@ -1,0 +1,132 @@
+"""Every argument check ``solve``, ``solve_ensemble`` and ``sweep`` share: state, span, step, ``t_eval``,
+``save_every``, ``args``, memory, direction.
+
+Each raises ``TypeError``/``ValueError`` with one grammar: "`x0` must ...; got ...".  The dimension
+of a state is taken from the data; geomint integrates systems in R^3, so it must be 3.
+"""
+
+import math
+
+import numpy as np
+
+from .. import _validate
+from .._kernels import layout as _layout
+
+#: the dimension of the states geomint integrates (R^n will take it from the system)
+DIMENSION = 3
+
+#: the most steps one run may take (step indices and counts stay exact in float64 and int64)
+MAX_STEPS = 1 << 52
+
+
+def check_states(value, name, one=True):
+    """``value`` as float64 states: one state, shape ``(n,)`` (``one``), or starts, shape ``(m, n)`` with
+    ``m >= 1``.  ``n`` is read from the data and must be ``DIMENSION``."""
+    shape = f"({DIMENSION},)" if one else f"(n, {DIMENSION})"
+    kind = f"a sequence of {DIMENSION} real numbers" if one else f"an array of real starts, shape {shape}"
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"`{name}` must be {kind}; got {value!r}.")
+    try:
+        states = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise TypeError(f"`{name}` must be {kind}; got {value!r}.") from None
+    if np.asarray(value).dtype.kind not in "iuf":
+        raise TypeError(f"`{name}` must be {kind}; got {value!r}.")
+    if states.ndim != (1 if one else 2) or states.shape[-1] != DIMENSION or states.size == 0:
+        raise ValueError(f"`{name}` must have shape {shape}{'' if one else ' with n >= 1'}; got shape {states.shape}: "
+                         f"states of length {DIMENSION}, as geomint integrates systems in R^{DIMENSION} (got length "
+                         f"{states.shape[-1] if states.ndim else 0}).")
+    return states
+
+
+def check_state(x0, system=None, name="x0"):
+    """One finite state (``check_states``), with H and S finite there when ``system`` is given."""
+    x = check_states(x0, name)
+    if not np.all(np.isfinite(x)):
+        raise ValueError(f"`{name}` must be finite; got {x.tolist()}.")
+    if system is not None:
+        H0, S0 = system.H(x), system.S(x)
+        if not (np.isfinite(H0) and np.isfinite(S0)):
+            raise ValueError(f"H and S must be finite at `{name}`; at {name} = {x.tolist()} H = {H0!r}, S = {S0!r}.")
+    return x
+
+
+def check_span(t_span):
+    if isinstance(t_span, (str, bytes)) or np.ndim(t_span) != 1 or len(t_span) != 2:
+        raise ValueError(f"`t_span` must be a pair (t0, t_end) of real numbers; got {t_span!r}.")
+    t0, t_end = (_validate.real("t_span", t) for t in t_span)
+    if not (math.isfinite(t0) and math.isfinite(t_end)):
+        raise ValueError(f"`t_span` must be finite; got {t_span!r}.")
+    if t_end == t0:
+        raise ValueError(f"`t_span` must satisfy t_end != t0; got {t_span!r}.")
+    return t0, t_end
+
+
+def check_step(h, t0, t_end):
+    h = _validate.real("h", h)
+    if not (math.isfinite(h) and h > 0.0):
+        raise ValueError(f"`h` must be finite and > 0; got {h!r}.")
+    steps = abs(t_end - t0) / h
+    if not steps <= MAX_STEPS:
+        raise ValueError(f"`h` = {h!r} needs {steps:.3g} steps over t_span = ({t0!r}, {t_end!r}); at most 2**52 are "
+                         "allowed. Use a larger `h` or a shorter span.")
+    if t0 + h == t0 or t_end - h == t_end:
+        raise ValueError(f"`h` = {h!r} cannot advance the time {max(abs(t0), abs(t_end))!r} in float64; use a larger `h` "
+                         "or shift t_span towards 0.")
+    return h
+
+
+def check_save_every(save_every, n_steps):
+    if save_every is None:
+        return n_steps
+    if isinstance(save_every, (bool, np.bool_)) or not isinstance(save_every, (int, np.integer)) or save_every < 1:
+        raise ValueError(f"`save_every` must be an integer >= 1 or None; got {save_every!r}.")
+    return int(min(save_every, n_steps))
+
+
+def check_memory(rows):
+    """Refuse up front a run whose saved states would not fit in memory."""
+    problem = _validate.memory_problem(rows * 6 * 8)
+    if problem:
+        raise ValueError(f"saving {rows} states {problem}; use a larger `save_every` (or None).")
+
+
+def check_t_eval(t_eval, t0, t_end):
+    values = _validate.reals("t_eval", t_eval)
+    if values.size == 0:
+        raise ValueError("`t_eval` must hold at least one time; got an empty sequence.")
+    lo, hi = min(t0, t_end), max(t0, t_end)
+    outside = values[(values < lo) | (values > hi)]
+    if outside.size:
+        raise ValueError(f"`t_eval` must lie within t_span = ({t0!r}, {t_end!r}); got {float(outside[0])!r}.")
+    steps = np.diff(values) * math.copysign(1.0, t_end - t0)
+    if np.any(steps <= 0):
+        k = int(np.argmax(steps <= 0))
+        order = "increasing" if t_end > t0 else "decreasing (t_span runs backward)"
+        raise ValueError(f"`t_eval` must be strictly {order}; got {float(values[k])!r} then {float(values[k + 1])!r} at index {k}.")
+    check_memory(values.size + 2)
+    return values
+
+
+def with_args(system, args):
+    values = _validate.reals("args", args)
+    if values.shape != system.params.shape:
+        raise ValueError(f"`args` must have {system.params.size} values, as the system's params; got {values.size}: "
+                         f"{values.tolist()}.")
+    return system.with_effects(params=values)
+
+
+def reversible(step_data):
+    """Backward steps are the same formulas with ``h < 0``: RK4, the pairs, the discrete-gradient family.
+    Projections and the compositions' S safeguard assume S falls along the step."""
+    if isinstance(step_data, _layout.EmbeddedPairStep):
+        return step_data.projection == _layout.NO_PROJECTION
+    return isinstance(step_data, (_layout.RungeKutta4, _layout.DiscreteGradientStep))
+
+
+def check_direction(integrator, step_data, t_span, t0, t_end):
+    """Refuse a backward ``t_span`` for a method that cannot step backward (``reversible``)."""
+    if t_end < t0 and not reversible(step_data):
+        raise ValueError(f"`t_span` = {t_span!r} runs backward, which {integrator!r} cannot: its S safeguard or "
+                         "projection keeps S from rising, as S must backward. Use Gonzalez(), another discrete "
+                         "gradient, RK4() or a Runge-Kutta pair.")

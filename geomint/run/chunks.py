@@ -1,0 +1,85 @@
+"""The compiled loop called in timed chunks: between chunks ``solve`` reports progress and answers Ctrl-C.
+
+``run_chunk`` is the one call of ``geomint._kernels.loop.run`` from Python for a single trajectory (``solve``'s
+runs and the landing steps of ``events``); ``next_chunk`` sizes the next chunk to about ``CHUNK_SECONDS``.
+"""
+
+import contextlib
+import signal
+import threading
+import time
+
+import numpy as np
+
+from .._kernels import layout as _layout
+from .._kernels import loop as _loop
+
+#: the compiled loop runs in chunks of about CHUNK_SECONDS (between them ``solve`` reports progress and
+#: answers Ctrl-C), from FIRST_CHUNK steps up to at most MAX_CHUNK
+CHUNK_SECONDS = 0.1
+
+
+FIRST_CHUNK = 1000
+
+
+MAX_CHUNK = 10_000_000
+
+
+def new_output(rows):
+    return _loop.Output(np.empty(rows), np.empty((rows, 3)), np.empty(rows), np.empty(rows),
+                          np.zeros(_layout.N_COUNTERS, dtype=np.int64), np.zeros(1))
+
+
+def next_chunk(chunk, seconds):
+    """Steps for the next call of the compiled loop: about ``CHUNK_SECONDS`` of work, so progress reports and
+    Ctrl-C are answered within that time whatever a step costs."""
+    if seconds <= 0.0:
+        return min(MAX_CHUNK, 4 * chunk)
+    return int(min(MAX_CHUNK, 4 * chunk, max(FIRST_CHUNK, chunk * CHUNK_SECONDS / seconds)))
+
+
+@contextlib.contextmanager
+def interrupts():
+    """Ctrl-C (SIGINT) sets a flag read between chunks instead of raising in the middle of the run.
+
+    Only in the main thread and only where Python's own handler is installed (a caller that
+    handles SIGINT itself keeps it); the previous handler is restored on exit.
+    """
+    flag = []
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        yield flag
+        return
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: flag.append(signum))
+    try:
+        yield flag
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def save_interrupted(system, state, t, out):
+    """Stop at time ``t``: the state reached is saved as the last row and the run marked interrupted."""
+    counters = out.counters
+    row = int(counters[_layout.ROWS])
+    if out.t[row - 1] != t:
+        x = state[_layout.STATE_X:_layout.STATE_X + 3].copy()
+        out.t[row], out.x[row], out.H[row], out.S[row] = t, x, system.H(x), state[_layout.STATE_S]
+        counters[_layout.ROWS] = row + 1
+    counters[_layout.STATUS] = _layout.INTERRUPTED
+
+
+def new_run_state(step_data, x0):
+    """``(work, state)`` of a run from ``x0``: the method's workspace, and the state with no compensation yet, the
+    energy anchor to be taken at ``x0`` (NaN) and S unknown."""
+    work = np.zeros(getattr(step_data, "slots", 1) * _layout.WORK)
+    state = np.concatenate([x0, np.zeros(3), [np.nan, 0.0]])
+    return work, state
+
+
+def run_chunk(system, step_data, control, state, work, clock, stops, budget, out):
+    """At most ``budget`` attempted steps of the compiled loop (arrays updated in place); returns the seconds
+    it took."""
+    started = time.perf_counter()
+    _loop.run(system.model, system.eps, system.hamiltonian, step_data, control, state, work, clock, stops, budget,
+              out)
+    return time.perf_counter() - started
