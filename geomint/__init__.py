@@ -16,7 +16,7 @@ The package, layer by layer (each imports only the layers below it; ``tests/test
 
 import sys as _sys
 
-from . import analysis, diagnostics, studies, systems
+from . import analysis, diagnostics, integrators, studies, systems
 from ._user_errors import UserFunctionError
 from ._version import __version__
 from .analysis import continuation, level_set
@@ -41,6 +41,8 @@ for _name, _module in (("continuation", continuation), ("level_set", level_set),
 # runs about runs moved from diagnostics to studies; reachable where they were
 for _name in ("Curve", "measured_order", "reference_solution", "work_precision"):
     setattr(diagnostics, _name, getattr(studies, _name))
+# and S_rise_statistics, which runs a method, from integrators to studies
+integrators.S_rise_statistics = studies.S_rise_statistics
 del _name, _module
 
 __all__ = [

@@ -24,16 +24,6 @@ INTEGRATORS = {
 }
 
 
-def __getattr__(name):
-    """``S_rise_statistics`` runs a method, so it lives with the runs about runs (``geomint.studies``); it stays
-    importable here, by its earlier name, without this layer importing the run layer."""
-    if name == "S_rise_statistics":
-        from ..studies import S_rise_statistics
-
-        return S_rise_statistics
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
 def resolve(method):
     """An ``Integrator`` from an instance or a short name such as ``"gonzalez"`` (default options)."""
     if isinstance(method, Integrator):
