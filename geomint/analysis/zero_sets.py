@@ -72,7 +72,8 @@ def zero_set(system: MetriplecticSystem, H0: float, Z: Callable[[npt.NDArray[np.
     H0 = check_level(H0)
     if not (isinstance(n, (int, np.integer)) and n >= 20):
         raise ValueError(f"`n` must be an integer >= 20; got {n!r}.")
-    center = _level_set.energy_minimiser(system) if center is None else cast("npt.NDArray[np.float64]", as_points(center)[0])
+    center = (_level_set.energy_minimiser(system) if center is None
+              else cast("npt.NDArray[np.float64]", as_points(center)[0]))
     points = _level_set.on_rays(system, H0, _level_set.fibonacci_directions(int(n)), center)
     size = np.linalg.norm(Z(points), axis=1)
     scale = float(size.max())
