@@ -201,7 +201,7 @@ def solve_together(system: MetriplecticSystem, X0: npt.ArrayLike, t_span: tuple[
     return ensemble
 
 
-def runs_together(scene: Scene, checkpoint: tuple[Path, int] | None = None) -> bool:
+def runs_together(scene: Scene, checkpoint: tuple[str | os.PathLike[str], int | None] | None = None) -> bool:
     """Whether ``run_scene`` runs the trajectories of ``scene`` together through ``solve_ensemble`` (else one by
     one through ``solve``; the module docstring says when)."""
     return checkpoint is None and scene.steps_per_trajectory <= ENSEMBLE_STEPS
