@@ -23,18 +23,22 @@ checkouts or installs apart.  With no writable folder at all, ``CACHE`` is
 False, kernels are compiled anew in every process, and one warning says so.
 """
 
+from __future__ import annotations
+
 import hashlib
 import os
 import tempfile
 import warnings
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from numba.core import caching
 
 PACKAGE = Path(__file__).resolve().parent
 
 
-def writable(folder):
+def writable(folder: str | os.PathLike[str]) -> bool:
     """True when ``folder`` exists or can be created, and a file can be written in it."""
     try:
         Path(folder).mkdir(parents=True, exist_ok=True)
@@ -44,44 +48,45 @@ def writable(folder):
     return True
 
 
-def user_folder(name):
+def user_folder(name: str) -> Path:
     """``<tmp>/<name>-<uid>``: a per-user folder in the temporary directory."""
     return Path(tempfile.gettempdir()) / f"{name}-{os.getuid() if hasattr(os, 'getuid') else 'user'}"
 
 
-def candidates():
+def candidates() -> list[Path]:
     """The folders that may hold geomint's cache, in order of preference (see the module docstring)."""
     folders = [Path(os.environ[key]) for key in ("GEOMINT_CACHE_DIR", "NUMBA_CACHE_DIR") if os.environ.get(key)]
     user_cache = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
     return [*folders, Path(user_cache) / "geomint", user_folder("geomint")]
 
 
-def cache_root():
+def cache_root() -> Path | None:
     """The first writable folder of :func:`candidates`, or None when none is writable."""
     return next((folder for folder in candidates() if writable(folder)), None)
 
 
-def kernel_folder(source_folder, root=None):
+def kernel_folder(source_folder: str | os.PathLike[str], root: str | os.PathLike[str] | None = None) -> Path:
     """Where numba caches the compiled code of the package's sources in ``source_folder``."""
     root = cache_root() if root is None else root
     digest = hashlib.sha1(str(PACKAGE).encode()).hexdigest()[:12]
     relative = Path(source_folder).resolve().relative_to(PACKAGE)
-    return Path(root) / "numba" / f"geomint-{digest}" / relative
+    # root is None only with no writable folder, when no kernel is cached (PackageCacheLocator is unused)
+    return Path(root) / "numba" / f"geomint-{digest}" / relative  # pyright: ignore[reportArgumentType]
 
 
 class PackageCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheLocator):
     """numba's cache locator for the sources of this package: the user cache folder, not ``__pycache__``."""
 
-    def __init__(self, py_func, py_file):
+    def __init__(self, py_func: Callable[..., Any], py_file: str) -> None:
         self._py_file = py_file
         self._lineno = py_func.__code__.co_firstlineno
         self._cache_path = str(kernel_folder(Path(py_file).parent, ROOT))
 
-    def get_cache_path(self):
+    def get_cache_path(self) -> str:
         return self._cache_path
 
     @classmethod
-    def from_function(cls, py_func, py_file):
+    def from_function(cls, py_func: Callable[..., Any], py_file: str) -> PackageCacheLocator | None:
         if ROOT is None or not Path(py_file).resolve().is_relative_to(PACKAGE):
             return None
         return super().from_function(py_func, py_file)
@@ -93,7 +98,7 @@ def _register():
                       "kernels are compiled in every process. Set GEOMINT_CACHE_DIR to a writable folder.",
                       RuntimeWarning, stacklevel=3)
         return False
-    implementation = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # renamed in numba 0.61
+    implementation = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # pyright: ignore[reportAttributeAccessIssue]  # renamed in numba 0.61
     locators = implementation._locator_classes
     if PackageCacheLocator not in locators:
         locators.insert(0, PackageCacheLocator)

@@ -1,8 +1,11 @@
 """Writing files so that a failed or interrupted write never leaves a partial file under the final name."""
 
+from __future__ import annotations
+
 import contextlib
 import os
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 _UMASK = os.umask(0o022)
@@ -10,7 +13,7 @@ os.umask(_UMASK)
 
 
 @contextlib.contextmanager
-def atomic(path):
+def atomic(path: str | os.PathLike[str]) -> Iterator[Path]:
     """A temporary path beside ``path`` (same suffix), renamed onto ``path`` when the block ends normally and
     removed when it raises: a failed or interrupted write never leaves a partial file under the final name."""
     path = Path(path)

@@ -11,11 +11,19 @@ failed step.  The hook is synchronous (the kernel holds the GIL when numba calls
 it), per thread, and passes every other unraisable exception on unchanged.
 """
 
+from __future__ import annotations
+
 import contextlib
 import sys
 import threading
+from collections.abc import Iterable, Iterator, Mapping
+from typing import TYPE_CHECKING, Any
 
 from ._kernels.layout import RAISED
+
+if TYPE_CHECKING:
+    import numpy as np
+    import numpy.typing as npt
 
 
 class UserFunctionError(ValueError):
@@ -25,12 +33,12 @@ class UserFunctionError(ValueError):
     ``__cause__``.
     """
 
-    def __init__(self, function, x, error, advice=""):
+    def __init__(self, function: str, x: Iterable[float], error: BaseException | None, advice: str = "") -> None:
         self.function, self.x = function, list(x)
         super().__init__(f"the user function `{function}` raised {error!r} at x = {self.x}. {advice}".rstrip())
 
 
-def raised_by(error, functions):
+def raised_by(error: BaseException, functions: Mapping[str, Any]) -> str | None:
     """The name (a key of ``functions``, a dict of jitted functions) of the function ``error`` was raised in, from
     the frames numba writes into its traceback, or None."""
     codes = {(fn.py_func.__code__.co_filename, fn.py_func.__name__): name
@@ -52,7 +60,7 @@ _everywhere = []  # the records of ``catching_everywhere`` blocks running now (a
 def _hook(unraisable):
     record = getattr(_active, "record", None)
     if not str(unraisable.object).startswith("<numba."):
-        _previous(unraisable)
+        _previous(unraisable)  # pyright: ignore[reportOptionalCall]  # set by _install before _hook is installed
     elif record is not None:
         if not record:
             record.append(unraisable.exc_value)
@@ -61,7 +69,7 @@ def _hook(unraisable):
     elif _everywhere:  # a worker thread of a parallel kernel: no counter to say which trajectory
         _everywhere[-1].append(unraisable.exc_value)
     else:
-        _previous(unraisable)
+        _previous(unraisable)  # pyright: ignore[reportOptionalCall]  # set by _install before _hook is installed
 
 
 def _install():
@@ -71,7 +79,7 @@ def _install():
 
 
 @contextlib.contextmanager
-def catching_everywhere():
+def catching_everywhere() -> Iterator[list[BaseException]]:
     """Record the exceptions user functions raise in kernels run by any thread during this block (a parallel
     kernel's workers): the list says *that* something raised, not in which trajectory."""
     _install()
@@ -84,7 +92,7 @@ def catching_everywhere():
 
 
 @contextlib.contextmanager
-def catching(counters=None):
+def catching(counters: npt.NDArray[np.int64] | None = None) -> Iterator[list[BaseException]]:
     """Record the first exception user functions raise inside kernels run in this block (a list, empty or of one).
 
     ``counters``: the run's counters array, whose ``RAISED`` entry counts them for the step loop.

@@ -5,13 +5,21 @@ step sizes), integers too large for float64 are refused rather than raising
 OverflowError, and every error names the argument.
 """
 
+from __future__ import annotations
+
 import numbers
 import os
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+if TYPE_CHECKING:
+    from collections.abc import Iterable
 
-def real(name, value):
+    import numpy.typing as npt
+
+
+def real(name: str, value: object) -> float:
     """``value`` as a float, or a TypeError/ValueError naming ``name``."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise TypeError(f"`{name}` must be a real number; got {value!r} ({type(value).__name__}).")
@@ -21,7 +29,7 @@ def real(name, value):
         raise ValueError(f"`{name}` must be finite in float64; got an integer of {len(str(abs(value)))} digits.") from None
 
 
-def reals(name, values):
+def reals(name: str, values: object) -> npt.NDArray[np.float64]:
     """``values`` (a number or a 1-D sequence of real numbers, all finite) as a float64 array, or a
     TypeError/ValueError naming ``name``."""
     try:
@@ -38,7 +46,7 @@ def reals(name, values):
     return array
 
 
-def memory_problem(nbytes):
+def memory_problem(nbytes: int) -> str | None:
     """None when ``nbytes`` fits in half this machine's memory, else the figures as text."""
     try:
         available = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
@@ -49,7 +57,7 @@ def memory_problem(nbytes):
     return f"needs {nbytes / 2**30:.3g} GiB, more than half this machine's memory ({available / 2**30:.3g} GiB)"
 
 
-def did_you_mean(key, known):
+def did_you_mean(key: object, known: Iterable[object]) -> str:
     """``"; did you mean `name`?"`` for the known name nearest ``key`` (difflib), else ``"."``: the end of an
     "unknown key" message."""
     import difflib

@@ -19,15 +19,27 @@ Runs about runs (``reference_solution``, ``measured_order``, ``work_precision``,
 (``geomint`` keeps them reachable here under their earlier names).
 """
 
+from __future__ import annotations
 
 import math
 import statistics
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
 from .results.solution import S_rises  # noqa: F401 (a measure of one Solution, defined beside it)
+
+if TYPE_CHECKING:
+    from typing import TypeVar
+
+    import numpy.typing as npt
+
+    from .results.solution import Solution
+
+    _T = TypeVar("_T")
 
 EPS = float(np.finfo(np.float64).eps)
 #: a drift whose windowed maxima stay within this many ulp (multiples of EPS) is round-off: no law is fitted
@@ -35,7 +47,7 @@ ROUNDOFF_ULPS = 16
 
 
 # -- energy --------------------------------------------------------------------------------
-def energy_error(sol):
+def energy_error(sol: Solution) -> npt.NDArray[np.float64]:
     """``|H(t) - H0| / |H0|`` at the saved times, shape ``(n,)`` (absolute error when ``H0 = 0``).
 
     >>> import geomint
@@ -58,15 +70,15 @@ class Windows:
     edges: np.ndarray
     maxima: np.ndarray = field(init=False)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         self.maxima = np.full(self.edges.size - 1, np.nan)
 
     @classmethod
-    def log_spaced(cls, t_first, t_end, count):
+    def log_spaced(cls, t_first: float, t_end: float, count: int) -> Windows:
         """``count`` windows with edges from ``t_first`` to ``t_end`` in geometric progression."""
         return cls(np.geomspace(t_first, t_end, count + 1))
 
-    def add(self, t, values):
+    def add(self, t: npt.ArrayLike, values: npt.ArrayLike) -> None:
         """Take the values at times ``t`` into their windows' maxima."""
         index = np.clip(np.searchsorted(self.edges, t, side="right") - 1, 0, self.maxima.size - 1)
         current = np.where(np.isnan(self.maxima), -np.inf, self.maxima)
@@ -74,12 +86,13 @@ class Windows:
         self.maxima = np.where(np.isfinite(current), current, np.nan)
 
     @property
-    def centers(self):
+    def centers(self) -> npt.NDArray[np.float64]:
         """Geometric centres of the windows (where their maxima are plotted and fitted)."""
         return np.sqrt(self.edges[:-1] * self.edges[1:])
 
 
-def windowed_drift(sol, count=20, t_first=None):
+def windowed_drift(sol: Solution, count: int = 20, t_first: float | None = None,
+                   ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """``(centers, maxima)``: the energy error's maxima over ``count`` log-spaced windows of ``sol.t``.
 
     ``t_first`` (default: the second saved time) is the first window edge
@@ -88,7 +101,7 @@ def windowed_drift(sol, count=20, t_first=None):
     t = sol.t - sol.t[0]
     if t.size < 2 or t[-1] <= 0:
         raise ValueError(f"`sol` must hold at least two saved times; got {t.size}.")
-    t_first = t[1] if t_first is None else float(t_first)
+    t_first = cast(float, t[1]) if t_first is None else float(t_first)
     if not 0 < t_first < t[-1]:
         raise ValueError(f"`t_first` must lie in (0, {t[-1]:g}); got {t_first!r}.")
     windows = Windows.log_spaced(t_first, t[-1], count)
@@ -96,7 +109,8 @@ def windowed_drift(sol, count=20, t_first=None):
     return windows.centers, windows.maxima
 
 
-def growth_law(t, maxima, t_min, floor=1e-17, roundoff=ROUNDOFF_ULPS):
+def growth_law(t: npt.NDArray[np.float64], maxima: npt.NDArray[np.float64], t_min: float, floor: float = 1e-17,
+               roundoff: float = ROUNDOFF_ULPS) -> tuple[float, str]:
     """Fit ``max |H - H0| ~ C t^p`` over windows with ``t >= t_min``; returns ``(p, law)``.
 
     ``law`` is "flat" (p < 0.25), "sqrt t" (p < 0.75: a random walk of
@@ -128,7 +142,7 @@ def growth_law(t, maxima, t_min, floor=1e-17, roundoff=ROUNDOFF_ULPS):
 
 
 # -- orders --------------------------------------------------------------------------------
-def observed_order(step_sizes, errors, floor=1e-13):
+def observed_order(step_sizes: npt.ArrayLike, errors: npt.ArrayLike, floor: float = 1e-13) -> float:
     """Least-squares slope of ``log error`` against ``log h``, round-off plateau excluded.
 
     Points with ``error <= floor`` (relative round-off level) are dropped, and
@@ -155,7 +169,7 @@ def observed_order(step_sizes, errors, floor=1e-13):
 
 
 # -- work and precision --------------------------------------------------------------------
-def median_time(run, repeats, budget=2.0):
+def median_time(run: Callable[[], _T], repeats: int, budget: float = 2.0) -> tuple[float, _T]:
     """Median wall time of ``run()`` over ``repeats`` calls (fewer when they exceed ``budget`` s in all).
 
     Returns ``(median seconds, last result)``; call it after a warm-up call so
@@ -168,16 +182,17 @@ def median_time(run, repeats, budget=2.0):
         times.append(time.perf_counter() - start)
         if sum(times) > budget:
             break
-    return statistics.median(times), result
+    # result is set: with no call, the median of no times raises
+    return statistics.median(times), result  # pyright: ignore[reportReturnType]
 
 
-def error_along(sol, reference):
+def error_along(sol: Solution, reference: Callable[[npt.NDArray[np.float64]], Any]) -> float:
     """The largest distance ``|x_k - reference(t_k)|_2`` over the states of ``sol``; ``reference(t)`` gives
     ``(len(t), 3)`` states (e.g. a dense DOP853 solution, transposed)."""
     return float(np.max(np.linalg.norm(sol.x - reference(sol.t), axis=1)))
 
 
-def cost_to_reach(cost, error, target):
+def cost_to_reach(cost: npt.ArrayLike, error: npt.ArrayLike, target: float) -> float:
     """Cost at which ``error`` first falls to ``target``, interpolated in log-log; NaN if never.
 
     >>> round(cost_to_reach([1, 10, 100], [1e-2, 1e-4, 1e-6], 1e-5), 1)

@@ -3,9 +3,13 @@
 Each function calls ``geomint.solve`` and measures what comes back with ``geomint.diagnostics``.
 """
 
+from __future__ import annotations
+
 import math
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -20,8 +24,15 @@ from .run.arguments import check_state
 from .run.chunks import new_run_state
 from .run.solve import solve
 
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
-def reference_solution(system, x0, t_end, rtol=1e-13, atol=1e-15):
+    from .integrators import Integrator
+    from .model.system import MetriplecticSystem
+
+
+def reference_solution(system: MetriplecticSystem, x0: npt.ArrayLike, t_end: float, rtol: float = 1e-13,
+                       atol: float = 1e-15) -> npt.NDArray[np.float64]:
     """``x(t_end)`` by scipy's DOP853 at tight tolerances (structure-blind, for error measurements)."""
     from scipy.integrate import solve_ivp
 
@@ -33,7 +44,9 @@ def reference_solution(system, x0, t_end, rtol=1e-13, atol=1e-15):
     return result.y[:, -1]
 
 
-def measured_order(system, method, x0, t_end, step_sizes, reference=None, floor=1e-13):
+def measured_order(system: MetriplecticSystem, method: Integrator | str, x0: npt.ArrayLike, t_end: float,
+                   step_sizes: Sequence[float], reference: npt.ArrayLike | None = None, floor: float = 1e-13,
+                   ) -> tuple[float, list[float]]:
     """Observed order of ``method`` on ``system`` from ``x0`` to ``t_end``: the slope of the
     relative final-state error against ``h`` (``observed_order``), against ``reference``
     (default: ``reference_solution``).  Returns ``(order, errors)``.
@@ -42,7 +55,7 @@ def measured_order(system, method, x0, t_end, step_sizes, reference=None, floor=
     reference = reference_solution(system, x0, t_end) if reference is None else np.asarray(reference)
     errors = []
     for h in step_sizes:
-        sol = solve(system, x0, (0.0, t_end), h, method=method, save_every=None)
+        sol = solve(system, x0, (0.0, t_end), h, method=method, save_every=None)  # pyright: ignore[reportArgumentType]  # solve takes save_every=None
         if not sol.success:
             raise RuntimeError(f"h = {h:g}: {sol.message}")
         errors.append(float(np.max(np.abs(sol.x_final - reference)) / np.max(np.abs(reference))))
@@ -62,8 +75,11 @@ class Curve:
     setting: list = field(default_factory=list)
 
 
-def work_precision(system, x0, t_end, method, step_counts, reference, repeats=3, point_budget=2.0,
-                   sweep_budget=math.inf, label=None, *, tolerances=None, samples=1000):
+def work_precision(system: MetriplecticSystem, x0: npt.ArrayLike, t_end: float, method: Integrator | str,
+                   step_counts: Sequence[int] | None,
+                   reference: npt.ArrayLike | Callable[[npt.NDArray[np.float64]], Any], repeats: int = 3,
+                   point_budget: float = 2.0, sweep_budget: float = math.inf, label: str | None = None, *,
+                   tolerances: Sequence[float] | None = None, samples: int = 1000) -> Curve:
     """Error against cost over a sweep of fixed steps ``h = T / n`` or of tolerances ``rtol = atol``.
 
     Parameters
@@ -102,15 +118,16 @@ def work_precision(system, x0, t_end, method, step_counts, reference, repeats=3,
     def run(setting):
         if tolerances is not None:
             return solve(system, x0, (0.0, t_end), rtol=setting, atol=setting, method=method,
-                         save_every=1 if along else None)
+                         save_every=1 if along else None)  # pyright: ignore[reportArgumentType]  # solve takes save_every=None
         n = round(t_end / setting)
         return solve(system, x0, (0.0, t_end), setting, method=method,
-                     save_every=max(1, n // samples) if along else None)
+                     save_every=max(1, n // samples) if along else None)  # pyright: ignore[reportArgumentType]  # solve takes save_every=None
 
     def error(sol):
-        return error_along(sol, reference) if along else float(np.linalg.norm(sol.x_final - reference))
+        return (error_along(sol, reference) if along  # pyright: ignore[reportArgumentType]  # along: callable
+                else float(np.linalg.norm(sol.x_final - reference)))
 
-    settings = tolerances if tolerances is not None else [t_end / n for n in step_counts]
+    settings = tolerances if tolerances is not None else [t_end / n for n in step_counts]  # pyright: ignore[reportOptionalIterable]  # one given
     run(settings[0])  # warm-up: compile
     plateau, start = 0, time.perf_counter()
     for setting in settings:

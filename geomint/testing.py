@@ -13,6 +13,10 @@ and lowers its Casimir, step by step, with tolerances in ulps of the terms::
 Requires ``hypothesis`` (``pip install geomint[test]``).
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Literal
+
 import numpy as np
 from hypothesis import assume, reject
 from hypothesis import strategies as st
@@ -23,11 +27,19 @@ from .studies import measured_order, reference_solution  # noqa: F401 (re-export
 from .integrators import INTEGRATORS
 from .run.solve import solve
 
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from .integrators import Integrator
+    from .model.system import MetriplecticSystem
+
+    Vector = npt.NDArray[np.float64]
+
 EPS = np.finfo(np.float64).eps
 
 
 # -- strategies -----------------------------------------------------------------------
-def states(bound=2.0, min_norm=1e-2):
+def states(bound: float = 2.0, min_norm: float = 1e-2) -> st.SearchStrategy[Vector]:
     """States in the box ``[-bound, bound]^3`` with ``|x| >= min_norm``, as float64 arrays."""
     coordinate = st.floats(-bound, bound, allow_nan=False, allow_infinity=False)
     return (
@@ -37,7 +49,7 @@ def states(bound=2.0, min_norm=1e-2):
     )
 
 
-def level_set_states(system, level, radius=1e3):
+def level_set_states(system: MetriplecticSystem, level: float, radius: float = 1e3) -> st.SearchStrategy[Vector]:
     """States ``x`` with ``H(x) = level``: a random direction ``u``, then ``x = r u`` with
     ``H(r u) = level`` solved by bisection on ``0 < r <= radius``.
 
@@ -64,7 +76,7 @@ def _on_ray(system, level, unit, radius):
     return high * unit
 
 
-def step_sizes(low=1e-3, high=0.5):
+def step_sizes(low: float = 1e-3, high: float = 0.5) -> st.SearchStrategy[float]:
     """Step sizes log-uniform in ``[low, high]``."""
     return st.floats(np.log(low), np.log(high)).map(np.exp)
 
@@ -73,7 +85,7 @@ def _coefficient(low=0.1, high=3.0):
     return st.floats(low, high, allow_nan=False)
 
 
-def catalogue_systems(eps=st.floats(0.0, 5.0)):
+def catalogue_systems(eps: st.SearchStrategy[float] = st.floats(0.0, 5.0)) -> st.SearchStrategy[MetriplecticSystem]:
     """Every catalogue system with random parameters and random ``eps``."""
     rigid = st.builds(_catalogue.relaxing_rigid_body, _coefficient(), _coefficient(), _coefficient(), eps=eps)
     quartic = st.builds(
@@ -86,7 +98,7 @@ def catalogue_systems(eps=st.floats(0.0, 5.0)):
     return st.one_of(rigid, quartic, oscillator, degenerate)
 
 
-def catalogue_examples():
+def catalogue_examples() -> list[MetriplecticSystem]:
     """One instance of every catalogue system with its default parameters (both degenerate examples)."""
     return [
         _catalogue.relaxing_rigid_body(),
@@ -97,7 +109,7 @@ def catalogue_examples():
     ]
 
 
-def structure_preserving_methods():
+def structure_preserving_methods() -> list[Integrator]:
     """Every integrator of the whole field (``geomint.integrators.INTEGRATORS``) that declares
     ``energy_exact`` and ``dissipative`` with default options, plus the compositions with
     ``monotone=True`` (sub-flow integrators such as exact Hamiltonian flows are parts of
@@ -110,7 +122,8 @@ def structure_preserving_methods():
 
 
 # -- one step and its invariants ----------------------------------------------------------
-def one_step(system, method, x, h, allow_failure=False):
+def one_step(system: MetriplecticSystem, method: Integrator | str, x: npt.ArrayLike, h: float,
+             allow_failure: bool = False) -> Vector:
     """``x_{n+1}`` after one step of size ``h`` from ``x``.
 
     A failed step raises ``AssertionError``; with ``allow_failure=True`` it is
@@ -126,7 +139,8 @@ def one_step(system, method, x, h, allow_failure=False):
     return sol.x[-1]
 
 
-def term_scale(value_old, value_new, gradient, x, base=0.0):
+def term_scale(value_old: float, value_new: float, gradient: npt.ArrayLike, x: npt.ArrayLike, base: float = 0.0,
+               ) -> float:
     """The size of the terms of F at a step: ``max(|F(x)|, |F(x')|, |grad F(x)| |x|, base)``.
 
     Round-off in evaluating F is a few ulps of its largest term; ``|grad F||x|``
@@ -137,28 +151,29 @@ def term_scale(value_old, value_new, gradient, x, base=0.0):
     return max(abs(value_old), abs(value_new), float(np.hypot.reduce(gradient) * np.hypot.reduce(x)), base)
 
 
-def origin_terms(system, name, x):
+def origin_terms(system: MetriplecticSystem, name: Literal["H", "S"], x: npt.ArrayLike) -> float:
     """``|F(0)| + sum_i |d_i F(0) x_i|`` for F = ``name`` (``"H"`` or ``"S"``): the constant and linear
     terms of F at x (``H = |x - c|^2 / 2`` written out has terms ~ |c|^2 where H ~ 0)."""
     origin = system.model.origin[{"H": 0, "S": 4}[name]:][:4]
     return float(abs(origin[0]) + np.abs(origin[1:]) @ np.abs(np.asarray(x, dtype=float)))
 
 
-def assert_conserves_energy(system, x, x_new, ulps=16):
+def assert_conserves_energy(system: MetriplecticSystem, x: Vector, x_new: Vector, ulps: float = 16) -> None:
     """``|H(x') - H(x)| <= ulps * eps * scale`` (see ``term_scale``)."""
     H0, H1 = system.H(x), system.H(x_new)
     tol = ulps * EPS * term_scale(H0, H1, system.grad_H(x), x, origin_terms(system, "H", x))
     assert abs(H1 - H0) <= tol, f"|dH| = {abs(H1 - H0):.3e} > {tol:.3e} ({ulps} ulp) from x = {x.tolist()}"
 
 
-def assert_dissipates(system, x, x_new, ulps=16):
+def assert_dissipates(system: MetriplecticSystem, x: Vector, x_new: Vector, ulps: float = 16) -> None:
     """``S(x') - S(x) <= ulps * eps * scale``: S does not rise beyond round-off."""
     S0, S1 = system.S(x), system.S(x_new)
     tol = ulps * EPS * term_scale(S0, S1, system.grad_S(x), x, origin_terms(system, "S", x))
     assert S1 - S0 <= tol, f"S rose by {S1 - S0:.3e} > {tol:.3e} ({ulps} ulp) from x = {x.tolist()}"
 
 
-def assert_step_invariants(system, method, x, h, ulps=16, allow_failure=False):
+def assert_step_invariants(system: MetriplecticSystem, method: Integrator, x: Vector, h: float, ulps: float = 16,
+                           allow_failure: bool = False) -> Vector:
     """One step from ``x``: H kept to ``ulps`` and S not raised beyond ``ulps`` (as declared).
 
     Checks only what ``method`` declares (``energy_exact``, ``dissipative``);

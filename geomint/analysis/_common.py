@@ -1,24 +1,35 @@
 """What the analysis modules share: the fields by name, and the checks of their arguments."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    import numpy.typing as npt
+
+    from ..model.system import MetriplecticSystem
 
 FIELDS = ("xi", "xi_P", "xi_g")
 ZERO = 1e-9  # a residual at most this fraction of its scale counts as zero
 
 
-def field_of(system, field):
+def field_of(system: MetriplecticSystem, field: str) -> Callable[[npt.ArrayLike], npt.NDArray[np.float64]]:
     """``X -> field(X)`` at many points, shape ``(n, 3)``, for ``field`` in ``FIELDS``."""
     method = {"xi": system.xi, "xi_P": system.xi_P, "xi_g": system.xi_g}[field]
     return lambda X: np.atleast_2d(method(X))
 
 
-def check_field(field):
+def check_field(field: str) -> str:
     if field not in FIELDS:
         raise ValueError(f"`field` must be one of {', '.join(FIELDS)}; got {field!r}.")
     return field
 
 
-def check_level(H0):
+def check_level(H0: float) -> float:
     try:
         value = float(H0)
     except (TypeError, ValueError):
@@ -28,7 +39,7 @@ def check_level(H0):
     return value
 
 
-def as_points(X):
+def as_points(X: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """``X`` as a float64 array of shape ``(n, 3)`` (one point ``(3,)`` becomes ``(1, 3)``)."""
     try:
         X = np.atleast_2d(np.asarray(X, dtype=np.float64))

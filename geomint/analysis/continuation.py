@@ -19,13 +19,21 @@ the given eps values and locates every change of verdict (stable / unstable /
 neutral) or of kind (node / focus / saddle / centre / degenerate) by bisection.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from . import equilibria as _equilibria
 from . import stability as _stability
 from . import zero_sets as _zero_sets
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from ..model.system import MetriplecticSystem
 
 _BISECTIONS = 48
 
@@ -47,11 +55,11 @@ class Change:
     at_zero: bool = False
 
     @property
-    def eps(self):
+    def eps(self) -> float:
         """Midpoint of the final bracket (0 for a change at ``eps = 0+``)."""
         return 0.0 if self.at_zero else 0.5 * (self.eps_low + self.eps_high)
 
-    def __str__(self):
+    def __str__(self) -> str:
         where = "eps = 0+" if self.at_zero else f"eps = {self.eps:.6g}"
         return f"{'/'.join(self.before)} -> {'/'.join(self.after)} at {where}"
 
@@ -99,7 +107,7 @@ class Continuation:
     H0: float
     branches: list
 
-    def rows(self):
+    def rows(self) -> list[list[str]]:
         """Table rows: label, verdict at the smallest and at the largest eps, and the changes found."""
         rows = []
         for b in self.branches:
@@ -108,7 +116,8 @@ class Continuation:
         return rows
 
 
-def continuation(system, H0, eps_values, center=None, n=2000):
+def continuation(system: MetriplecticSystem, H0: float, eps_values: npt.ArrayLike, center: npt.ArrayLike | None = None,
+                 n: int = 2000) -> Continuation:
     """Follow the equilibria and rest cycles of ``system`` on ``H = H0`` over ``eps_values``.
 
     Parameters

@@ -10,7 +10,10 @@ finds the invariant curves ``{grad S = 0} n {H = H0}`` of Prop. 15 and their
 Floquet exponents.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -18,6 +21,11 @@ from ._common import check_field, field_of
 from .propositions import REASONS, explain
 from .stability import eigenvalue_kind, linearise, verdict
 from .zero_sets import zero_set
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from ..model.system import MetriplecticSystem
 
 
 @dataclass(frozen=True)
@@ -53,7 +61,7 @@ class Equilibrium:
     verdict: str
 
     @property
-    def kind(self):
+    def kind(self) -> str:
         """``"node"``, ``"focus"``, ``"saddle"``, ``"centre"`` or ``"degenerate"`` (see ``eigenvalue_kind``)."""
         return eigenvalue_kind(self.eigenvalues, _scale(self.jacobian))
 
@@ -89,13 +97,13 @@ class EquilibriumCurve:
     verdicts: np.ndarray
 
     @property
-    def verdict(self):
+    def verdict(self) -> str:
         """The verdict shared by every point, or ``"mixed"``."""
         unique = set(self.verdicts.tolist())
         return unique.pop() if len(unique) == 1 else "mixed"
 
     @property
-    def x(self):
+    def x(self) -> np.ndarray:
         """A representative point (the first)."""
         return self.points[0]
 
@@ -132,7 +140,8 @@ def _scale(jacobian):
     return float(np.linalg.norm(jacobian)) + 1e-300
 
 
-def equilibria(system, H0, field="xi", center=None, n=4000):
+def equilibria(system: MetriplecticSystem, H0: float, field: str = "xi", center: npt.ArrayLike | None = None,
+               n: int = 4000) -> list[Equilibrium | EquilibriumCurve]:
     """Equilibria of ``field`` on the level set ``H = H0``, each explained and classified.
 
     Candidates are the local minima of ``|F|`` over each point's 8 nearest
@@ -184,7 +193,8 @@ def equilibria(system, H0, field="xi", center=None, n=4000):
     return found
 
 
-def rest_cycles(system, H0, center=None, n=4000):
+def rest_cycles(system: MetriplecticSystem, H0: float, center: npt.ArrayLike | None = None, n: int = 4000,
+                ) -> list[RestCycle]:
     """The curves ``{grad S = 0} n {H = H0}`` and the stability of the flow ``xi`` across them.
 
     By Prop. 15 a regular point with ``grad S = 0`` lies on an invariant leaf
@@ -212,7 +222,7 @@ def rest_cycles(system, H0, center=None, n=4000):
     return [classify_cycle(system, points, closed) for kind, (points, closed) in zeros if kind == "curve"]
 
 
-def classify_cycle(system, points, closed):
+def classify_cycle(system: MetriplecticSystem, points: npt.NDArray[np.float64], closed: bool) -> RestCycle:
     """A ``RestCycle`` for an invariant curve given by ``points`` (shape ``(m, 3)``, in order) under ``system.xi``.
 
     Used by ``rest_cycles``; call it directly to re-classify a known curve for
@@ -241,14 +251,15 @@ def _equilibrium_curve(system, field, points, closed):
         propositions.append(proposition)
         reasons = set(why) if reasons is None else reasons & set(why)
     jacobians, eig = linearise(system, points, field)
-    lam = eig[np.arange(len(points)), np.argmax(np.abs(eig), axis=1)].real
+    lam = eig[np.arange(len(points)), np.argmax(np.abs(eig), axis=1)].real  # pyright: ignore[reportAttributeAccessIssue]
     scale = float(np.linalg.norm(jacobians, axis=(1, 2)).max())
     verdicts = np.array([verdict([v], scale) for v in lam])
-    return EquilibriumCurve(points, closed, field, np.array(regular), tuple(k for k in REASONS if k in reasons),
+    return EquilibriumCurve(points, closed, field, np.array(regular), tuple(k for k in REASONS if k in reasons),  # pyright: ignore[reportOperatorIssue]
                             propositions[0], lam, verdicts)
 
 
-def equilibrium_points(system, H0, center, n=4000):
+def equilibrium_points(system: MetriplecticSystem, H0: float, center: npt.ArrayLike | None, n: int = 4000,
+                       ) -> list[tuple[np.ndarray, str]]:
     """``[(x, verdict), ...]`` on ``H = H0``: the points of ``equilibria`` with their verdicts, a curve of
     equilibria contributing each of its traced points (what a figure marks)."""
     pairs = []

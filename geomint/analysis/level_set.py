@@ -6,12 +6,25 @@ direction ``u`` is mapped onto it by solving ``H(c + r u) = H0`` for ``r > 0``:
 bracket by doubling, then bisection to the last bit, vectorised over all rays.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    import numpy.typing as npt
+
+    from ..model.system import MetriplecticSystem
+
+    Array = npt.NDArray[np.float64]
 
 _GOLDEN_ANGLE = np.pi * (3.0 - np.sqrt(5.0))
 
 
-def fibonacci_directions(n):
+def fibonacci_directions(n: int) -> Array:
     """``n`` unit vectors spread almost uniformly over the sphere (Fibonacci lattice).
 
     ``z_k = 1 - (2k + 1)/n``, azimuth ``k * pi (3 - sqrt 5)``, ``k = 0 .. n-1``;
@@ -25,7 +38,7 @@ def fibonacci_directions(n):
     return np.stack([rho * np.cos(phi), rho * np.sin(phi), z], axis=1)
 
 
-def energy_minimiser(system):
+def energy_minimiser(system: MetriplecticSystem) -> Array:
     """The minimiser of H found from the origin (BFGS with the exact gradient): the default centre.
 
     Where H has no minimiser (unbounded below) the search ends wherever BFGS gave up, far out; the level
@@ -43,7 +56,7 @@ def energy_minimiser(system):
     return np.asarray(result.x, dtype=np.float64)
 
 
-def on_rays(system, H0, directions, center):
+def on_rays(system: MetriplecticSystem, H0: float, directions: npt.ArrayLike, center: npt.ArrayLike) -> Array:
     """The points ``c + r u`` with ``H(c + r u) = H0``, one per row ``u`` of ``directions``.
 
     Raises ``ValueError`` when ``H(center) >= H0`` or a ray does not reach the
@@ -67,7 +80,7 @@ def on_rays(system, H0, directions, center):
         low = np.where(outside, low, high)
         high = np.where(outside, high, 2.0 * high)
     else:
-        raise ValueError(f"the level set H = {H0!r} is not bounded in direction {U[~outside][0].tolist()}.")
+        raise ValueError(f"the level set H = {H0!r} is not bounded in direction {U[~outside][0].tolist()}.")  # pyright: ignore[reportOperatorIssue]  # the loop ran
     for _ in range(1100):  # bisection until the bracket stops shrinking (at most ~1100 halvings of a double)
         mid = 0.5 * (low + high)
         if np.all((mid == low) | (mid == high)):
@@ -79,13 +92,14 @@ def on_rays(system, H0, directions, center):
     return center + np.where(closer, low, high)[:, None] * U
 
 
-def sample(system, H0, n, center=None):
+def sample(system: MetriplecticSystem, H0: float, n: int, center: npt.ArrayLike | None = None) -> Array:
     """``n`` points spread over the level set ``H = H0``: Fibonacci directions mapped along rays."""
     center = energy_minimiser(system) if center is None else center
     return on_rays(system, H0, fibonacci_directions(n), center)
 
 
-def mesh(system, H0, center, n_theta=48, n_phi=96):
+def mesh(system: MetriplecticSystem, H0: float, center: npt.ArrayLike, n_theta: int = 48, n_phi: int = 96,
+         ) -> tuple[Array, Array, Array]:
     """``(X, Y, Z)`` arrays of shape ``(n_theta, n_phi)``: a latitude-longitude grid on the level set."""
     theta = np.linspace(0.0, np.pi, n_theta)
     phi = np.linspace(0.0, 2.0 * np.pi, n_phi)
@@ -95,7 +109,8 @@ def mesh(system, H0, center, n_theta=48, n_phi=96):
     return P[..., 0], P[..., 1], P[..., 2]
 
 
-def isosurface(system, H0, low, high, n=28):
+def isosurface(system: MetriplecticSystem, H0: float, low: npt.ArrayLike, high: npt.ArrayLike, n: int = 28,
+               ) -> Array:
     """Triangles of the level set ``H = H0`` inside the box ``[low, high]``, shape ``(k, 3, 3)``.
 
     For level sets that are not star-shaped or not bounded (a cylinder), where
@@ -113,7 +128,7 @@ def isosurface(system, H0, low, high, n=28):
     corner = np.array([[(c >> 2) & 1, (c >> 1) & 1, c & 1] for c in range(8)]) @ [n * n, n, 1]
     kuhn = corner[np.array([[0, 4, 6, 7], [0, 4, 5, 7], [0, 2, 6, 7], [0, 2, 3, 7], [0, 1, 5, 7], [0, 1, 3, 7]])]
     tets = (base[:, None, None] + kuhn[None]).reshape(-1, 4)
-    positive = values[tets] > 0.0
+    positive = values[tets] > 0.0  # pyright: ignore[reportCallIssue, reportArgumentType]  # tets: integers
     count = positive.sum(axis=1)
 
     def cut(a, b):  # the crossings on the edges a-b of the selected tetrahedra
@@ -141,7 +156,8 @@ def isosurface(system, H0, low, high, n=28):
     return vertices.reshape(-1, 3, 3)
 
 
-def section(system, H0, center, plane, n_theta=181, n_phi=361):
+def section(system: MetriplecticSystem, H0: float, center: npt.ArrayLike, plane: Sequence[float], n_theta: int = 181,
+            n_phi: int = 361) -> list[Array]:
     """Curves ``{H = H0} n {a x + b y + c z = d}`` as a list of ``(m, 3)`` arrays, ``plane = (a, b, c, d)``.
 
     The zero contour of ``a x + b y + c z - d`` on a latitude-longitude grid of
@@ -157,7 +173,7 @@ def section(system, H0, center, plane, n_theta=181, n_phi=361):
     lines = contourpy.contour_generator(phi, theta, distance).lines(0.0)
     curves = []
     for line in lines:
-        f, t = line[:, 0], line[:, 1]
+        f, t = line[:, 0], line[:, 1]  # pyright: ignore[reportCallIssue, reportArgumentType]  # an (m, 2) array
         U = np.stack([np.sin(t) * np.cos(f), np.sin(t) * np.sin(f), np.cos(t)], axis=1)
         curves.append(on_rays(system, H0, U, center))
     return curves

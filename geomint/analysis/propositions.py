@@ -19,11 +19,19 @@ equations share one counter.)  ``conditions`` evaluates these geometric
 conditions at many points; ``explain`` names the reasons and the proposition for one zero.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
 from ._common import ZERO, as_points, check_field
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from ..model.system import MetriplecticSystem
 
 REASONS = {
     "critical point of H": "grad H = 0",
@@ -57,7 +65,8 @@ class Conditions:
     xi_g_zero: np.ndarray
 
 
-def conditions(system, X, atol=None, rtol=ZERO):
+def conditions(system: MetriplecticSystem, X: npt.ArrayLike, atol: float | None = None, rtol: float = ZERO,
+               ) -> Conditions:
     """Evaluate at each row of ``X`` the conditions that the paper's propositions relate.
 
     A vector counts as zero when its norm is at most ``atol``; a product
@@ -109,7 +118,8 @@ def conditions(system, X, atol=None, rtol=ZERO):
     )
 
 
-def shared_equilibria_hold(system, X, atol=None):
+def shared_equilibria_hold(system: MetriplecticSystem, X: npt.ArrayLike, atol: float | None = None,
+                           ) -> npt.NDArray[np.bool_]:
     """Lemma 8 (Prop. 9) at each row of ``X``: at a regular point ``xi = 0`` iff ``xi_P = 0``.
 
     Returns a boolean array, True where the statement holds (always at
@@ -127,7 +137,8 @@ def shared_equilibria_hold(system, X, atol=None):
     return ~c.regular | (c.xi_zero == c.xi_P_zero)
 
 
-def regular_equilibria_explained(system, X, atol=None):
+def regular_equilibria_explained(system: MetriplecticSystem, X: npt.ArrayLike, atol: float | None = None,
+                                 ) -> npt.NDArray[np.bool_]:
     """Prop. 10 at each row of ``X``: a regular zero of ``xi_P`` is a critical point of H or has ``grad S || grad H``.
 
     Returns a boolean array, True where the statement holds.  Where
@@ -137,7 +148,8 @@ def regular_equilibria_explained(system, X, atol=None):
     return ~(c.regular & c.xi_P_zero & ~c.critical_S) | c.critical_H | c.parallel
 
 
-def gradient_zeros_explained(system, X, atol=None):
+def gradient_zeros_explained(system: MetriplecticSystem, X: npt.ArrayLike, atol: float | None = None,
+                             ) -> npt.NDArray[np.bool_]:
     """Prop. 11 at each row of ``X``: ``xi_g = 0`` iff ``grad S || grad H`` or a gradient vanishes.
 
     Compares the norm of the field ``system.xi_g`` itself (not the conditions'
@@ -162,7 +174,7 @@ def gradient_zeros_explained(system, X, atol=None):
     return field_zero == geometric
 
 
-def explain(system, x, field="xi"):
+def explain(system: MetriplecticSystem, x: npt.ArrayLike, field: str = "xi") -> tuple[bool, tuple[str, ...], str]:
     """``(regular, reasons, proposition)`` for a zero ``x`` of ``field``.
 
     ``reasons`` lists the keys of ``REASONS`` that hold at ``x`` (tolerances as
@@ -175,7 +187,7 @@ def explain(system, x, field="xi"):
     (False, ('dS = 0',), 'Section 2.3: non-regular point (P = 0), xi = eps xi_g')
     """
     field = check_field(field)
-    x = as_points(x)[0]
+    x = cast("npt.NDArray[np.float64]", as_points(x)[0])
     c = conditions(system, x[None], atol=1e-7 * (1.0 + float(np.linalg.norm(x))), rtol=1e-7)
     held = {"critical point of H": c.critical_H[0], "dS = 0": c.critical_S[0], "grad S || grad H": c.parallel[0]}
     reasons = tuple(key for key, on in held.items() if on)

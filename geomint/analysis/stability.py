@@ -7,14 +7,22 @@ the tangent plane ``grad H^perp`` (``T`` an orthonormal basis of it).
 through the cross-product matrix ``[grad H x]``: it holds in R^3 only.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
 from ._common import as_points, check_field, field_of
 
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
-def tangent_basis(system, x):
+    from ..model.system import MetriplecticSystem
+
+
+def tangent_basis(system: MetriplecticSystem, x: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """An orthonormal basis ``(2, 3)`` of the tangent plane ``grad H(x)^perp`` of the level set.
 
     Raises ``ValueError`` at a critical point of H (no tangent plane).
@@ -31,7 +39,8 @@ def _tangent_bases(system, X):
     return np.linalg.svd((normal / size[:, None])[:, None, :])[2][:, 1:]
 
 
-def linearise(system, x, field="xi", step=None):
+def linearise(system: MetriplecticSystem, x: npt.ArrayLike, field: str = "xi", step: float | None = None,
+              ) -> tuple[np.ndarray, np.ndarray]:
     """The Jacobian of ``field`` restricted to the level set through ``x``, and its eigenvalues.
 
         J_T = T Df(x) T^T,   T = tangent_basis(system, x)   (2 x 2),
@@ -108,12 +117,12 @@ class Factorisation:
     hessian: np.ndarray
     rotation: np.ndarray
 
-    def jacobian(self, eps):
+    def jacobian(self, eps: float) -> npt.NDArray[np.float64]:
         """``J_T(eps)``, shape (2, 2)."""
         return (self.mu * self.rotation - eps * self.grad_H_norm ** 2 * np.eye(2)) @ self.hessian
 
     @property
-    def constrained_type(self):
+    def constrained_type(self) -> str:
         """``"minimum"``, ``"maximum"``, ``"saddle"`` or ``"degenerate"``: the critical point of S on ``H = H0``."""
         low, high = np.linalg.eigvalsh(self.hessian)
         tol = 1e-7 * (abs(low) + abs(high))
@@ -124,7 +133,7 @@ class Factorisation:
         return "saddle" if low < -tol and high > tol else "degenerate"
 
     @property
-    def node_eps(self):
+    def node_eps(self) -> float:
         """``eps*`` where foci become nodes (``nan`` unless ``S`` has a strict extremum with ``l1 != l2``)."""
         l1, l2 = np.linalg.eigvalsh(self.hessian)
         if l1 * l2 <= 0.0 or l1 == l2:
@@ -132,7 +141,7 @@ class Factorisation:
         return float(2.0 * abs(self.mu) * np.sqrt(l1 * l2) / (self.grad_H_norm * abs(l1 - l2)))
 
 
-def factorise(system, x, step=None):
+def factorise(system: MetriplecticSystem, x: npt.ArrayLike, step: float | None = None) -> Factorisation:
     """The ``Factorisation`` of the tangent-plane Jacobian at a regular equilibrium ``x`` with ``grad S || grad H``.
 
     [R3]: the cross-product matrix ``[grad H x]`` exists in R^3 only.  Hessians
@@ -149,7 +158,7 @@ def factorise(system, x, step=None):
     >>> bool(np.allclose(f.jacobian(2.0), linearise(body, [0.0, 0.0, 1.0])[0], atol=1e-8))
     True
     """
-    x = as_points(x)[0]
+    x = cast("npt.NDArray[np.float64]", as_points(x)[0])
     gh, gs, j = (np.asarray(f(x), dtype=float) for f in (system.grad_H, system.grad_S, system.J))
     for name, v in (("grad H", gh), ("grad S", gs), ("J", j)):
         if not np.linalg.norm(v) > 0.0:
@@ -165,7 +174,7 @@ def factorise(system, x, step=None):
     return Factorisation(lam, mu, float(np.linalg.norm(gh)), T @ (0.5 * (L + L.T)) @ T.T, T @ cross @ T.T)
 
 
-def verdict(eigenvalues, scale, rtol=1e-7):
+def verdict(eigenvalues: npt.ArrayLike, scale: float, rtol: float = 1e-7) -> str:
     """``"stable"`` if every real part is below ``-rtol scale``, ``"unstable"`` if one is above, else ``"neutral"``.
 
     ``scale`` is the size of the Jacobian (e.g. its norm): real parts within
@@ -185,7 +194,7 @@ def verdict(eigenvalues, scale, rtol=1e-7):
     return "unstable" if np.any(real > tol) else "neutral"
 
 
-def eigenvalue_kind(eigenvalues, scale, rtol=1e-7):
+def eigenvalue_kind(eigenvalues: npt.ArrayLike, scale: float, rtol: float = 1e-7) -> str:
     """The type of a 2 x 2 linearisation: ``"node"``, ``"focus"``, ``"saddle"``, ``"centre"`` or ``"degenerate"``.
 
     Real parts and imaginary parts within ``rtol scale`` of zero count as zero;
@@ -200,7 +209,8 @@ def eigenvalue_kind(eigenvalues, scale, rtol=1e-7):
     tol = rtol * float(scale)
     if np.any(np.abs(lam) <= tol):
         return "degenerate"
-    if np.all(np.abs(lam.imag) <= tol):
-        return "saddle" if lam.real.min() < 0 < lam.real.max() else "node"
-    return "centre" if np.all(np.abs(lam.real) <= tol) else "focus"
+    # numpy's stubs type .real/.imag of an array of unknown dtype wrongly
+    if np.all(np.abs(lam.imag) <= tol):  # pyright: ignore[reportAttributeAccessIssue]
+        return "saddle" if lam.real.min() < 0 < lam.real.max() else "node"  # pyright: ignore[reportAttributeAccessIssue]
+    return "centre" if np.all(np.abs(lam.real) <= tol) else "focus"  # pyright: ignore[reportAttributeAccessIssue]
 

@@ -9,15 +9,26 @@ a correction on the plane through the predicted point normal to it
 of ``|Z|`` in a Fibonacci sample of the level set (``level_set``).
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, cast
+
 import numpy as np
 
 from . import level_set as _level_set
 from ._common import ZERO, as_points, check_field, check_level, field_of
 
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    import numpy.typing as npt
+
+    from ..model.system import MetriplecticSystem
+
 _STEPS_PER_TURN = 96  # curve tracing: steps per 2 pi radius
 
 
-def refine(system, x0, H0, field="xi"):
+def refine(system: MetriplecticSystem, x0: npt.ArrayLike, H0: float, field: str = "xi") -> npt.NDArray[np.float64]:
     """The zero of ``field`` on ``H = H0`` nearest ``x0`` (least squares on ``(F(x), H(x) - H0)``).
 
     Raises ``ValueError`` when no point with ``|F| <= 1e-9 |F|_scale`` and
@@ -33,7 +44,7 @@ def refine(system, x0, H0, field="xi"):
     >>> bool(np.allclose(x, [0.0, 0.0, 1.0], rtol=0.0, atol=1e-12))
     True
     """
-    x0 = as_points(x0)[0]
+    x0 = cast("npt.NDArray[np.float64]", as_points(x0)[0])
     H0 = check_level(H0)
     F = field_of(system, check_field(field))
     radius = 1.0 + float(np.linalg.norm(x0))
@@ -46,7 +57,8 @@ def refine(system, x0, H0, field="xi"):
     return x
 
 
-def zero_set(system, H0, Z, center, n):
+def zero_set(system: MetriplecticSystem, H0: float, Z: Callable[[npt.NDArray[np.float64]], npt.NDArray[np.float64]],
+             center: npt.ArrayLike | None, n: int) -> list[tuple[str, Any]]:
     """Isolated zeros and traced zero curves of ``Z`` on ``H = H0``: ``[("point", x) | ("curve", (pts, closed))]``.
 
     ``Z`` maps points ``(m, 3)`` to values ``(m, k)``.  Candidates are the local
@@ -60,7 +72,8 @@ def zero_set(system, H0, Z, center, n):
     H0 = check_level(H0)
     if not (isinstance(n, (int, np.integer)) and n >= 20):
         raise ValueError(f"`n` must be an integer >= 20; got {n!r}.")
-    center = _level_set.energy_minimiser(system) if center is None else as_points(center)[0]
+    center = (_level_set.energy_minimiser(system) if center is None
+              else cast("npt.NDArray[np.float64]", as_points(center)[0]))
     points = _level_set.on_rays(system, H0, _level_set.fibonacci_directions(int(n)), center)
     size = np.linalg.norm(Z(points), axis=1)
     scale = float(size.max())
@@ -69,7 +82,7 @@ def zero_set(system, H0, Z, center, n):
     radius = float(np.max(np.linalg.norm(points - center, axis=1)))
     h_scale = max(float(np.abs(system.H(points)).max()), abs(H0), 1e-300)
     solver = _Corrector(system, H0, Z, scale, h_scale, radius)
-    _, neighbours = spatial.cKDTree(points).query(points, k=9)
+    _, neighbours = spatial.cKDTree(points).query(points, k=9)  # pyright: ignore[reportAttributeAccessIssue]
     candidates = points[(size <= size[neighbours].min(axis=1)) & (size < 0.2 * scale)]
     found = []
     for x0 in candidates[np.argsort(np.linalg.norm(Z(candidates), axis=1))]:
@@ -116,7 +129,8 @@ class _Corrector:
         from scipy import optimize
 
         with np.errstate(divide="ignore", invalid="ignore"):  # trf divides by a zero step norm once converged
-            x = optimize.least_squares(lambda x: self.residual(x, plane), x0, jac=lambda x: self.jacobian(x, plane),
+            x = optimize.least_squares(lambda x: self.residual(x, plane), x0,
+                                       jac=lambda x: self.jacobian(x, plane),  # pyright: ignore[reportArgumentType]
                                        xtol=1e-15, ftol=1e-15, gtol=1e-15).x
         ok = np.linalg.norm(self.Z(x[None])[0]) <= ZERO * self.z_scale
         ok &= abs(self.system.H(x) - self.H0) <= 1e-12 * self.h_scale

@@ -24,7 +24,7 @@ INTEGRATORS = {
 }
 
 
-def resolve(method):
+def resolve(method: Integrator | str) -> Integrator:
     """An ``Integrator`` from an instance or a short name such as ``"gonzalez"`` (default options)."""
     if isinstance(method, Integrator):
         return method

@@ -1,9 +1,15 @@
 """The integrator protocol: what a method declares, and how it reaches the engine."""
 
+from __future__ import annotations
+
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from .._kernels import layout
+
+if TYPE_CHECKING:
+    #: ``Integrator.stage``: (leaf code, discrete-gradient kind, max_iter, damped, compensated, coefficients)
+    StageData = tuple[int, int, int, int, int, Any]
 
 
 @dataclass(frozen=True)
@@ -46,7 +52,7 @@ class Integrator:
     flows: ClassVar[tuple] = ("full", "hamiltonian", "gradient")
 
     @property
-    def traits(self):
+    def traits(self) -> Traits:
         raise NotImplementedError
 
     order = property(lambda self: self.traits.order, doc="Classical order of accuracy.")
@@ -56,25 +62,25 @@ class Integrator:
     implicit = property(lambda self: self.traits.implicit, doc="Each step solves a nonlinear equation.")
 
     @property
-    def whole_field(self):
+    def whole_field(self) -> bool:
         """True when the method integrates the whole metriplectic field (not a sub-flow only)."""
         return "full" in self.flows
 
-    def check_system(self, system):
+    def check_system(self, system: Any) -> None:  # system: a MetriplecticSystem (integrators import no model)
         """Raise ``ValueError`` when the method (or a part of it) does not apply to ``system``."""
 
-    def stage(self, system):
+    def stage(self, system: Any) -> StageData:
         """``(leaf code, discrete-gradient kind, max_iter, damped, compensated, coefficients)``: this method
         as one stage of a composed program (``program.Program``)."""
         raise TypeError(f"{self!r} cannot be a stage of a splitting or composition: use it on the whole field.")
 
-    def error_estimate(self):
+    def error_estimate(self) -> tuple[int, float]:
         """``(estimator, order of the estimate)`` for adaptive steps (``geomint._kernels.control``):
         step doubling (``layout.DOUBLING``) at the method's order, unless the method has a cheaper
         estimate of its own."""
         return layout.DOUBLING, self.order
 
-    def lower(self, system):
+    def lower(self, system: Any) -> tuple:
         """The step data (the lowered method: a named tuple of ``geomint._kernels.layout``) for a run of ``system``.
         Caller: ``geomint.solve``, after ``check_system``."""
         raise NotImplementedError

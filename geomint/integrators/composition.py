@@ -54,7 +54,7 @@ SCHEMES = {
 }
 
 
-def gammas(scheme, exact=False):
+def gammas(scheme: str, exact: bool = False) -> tuple[float | Decimal, ...]:
     """All ``gamma_1 .. gamma_s`` of ``scheme`` (floats, or Decimals when ``exact``)."""
     half = SCHEMES[scheme][2]
     full = half + half[-2::-1]
@@ -84,7 +84,7 @@ class Composition(Programmed, Integrator):
 
     name: ClassVar[str] = "composition"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if not isinstance(self.base, Integrator):
             raise TypeError(f"`base` must be a geomint Integrator; got {self.base!r}.")
         if not isinstance(self.scheme, str) or self.scheme not in SCHEMES:
@@ -100,15 +100,15 @@ class Composition(Programmed, Integrator):
             raise TypeError(f"`monotone` must be True or False; got {self.monotone!r}.")
 
     @property
-    def traits(self):
+    def traits(self) -> Traits:
         return Traits(order=SCHEMES[self.scheme][0], energy_exact=self.base.energy_exact, dissipative=self.monotone,
                       symmetric=not self.monotone, implicit=self.base.implicit or self.monotone)
 
-    def program(self):
+    def program(self) -> Program:
         base = program_of(self.base)
         return Program(base.stages, gammas(self.scheme), self.monotone)
 
-    def sub_methods(self):
+    def sub_methods(self) -> tuple[Integrator, ...]:
         return (self.base,)
 
 

@@ -13,31 +13,37 @@ A short name alone stands for the method with its defaults:
 ``method_from_data("strang") == Strang()``.
 """
 
+from __future__ import annotations
+
 import dataclasses
+from typing import TYPE_CHECKING, Any
 
 from .._validate import did_you_mean
 from . import INTEGRATORS, Integrator
+
+if TYPE_CHECKING:
+    from collections.abc import Mapping
 
 
 class MethodDataError(ValueError):
     """A method table that names no integrator or a bad option: ``key`` says where, ``problem`` what."""
 
-    def __init__(self, key, problem):
+    def __init__(self, key: str, problem: str) -> None:
         self.key, self.problem = key, problem
         super().__init__(f"`{key}`: {problem}")
 
 
-def short_names():
+def short_names() -> dict[str, type[Integrator]]:
     """Short name -> integrator class, for every method a scene or ``solve`` can name."""
     return dict(sorted(INTEGRATORS.items()))
 
 
-def options_of(cls):
+def options_of(cls: type[Integrator]) -> list[str]:
     """The constructor's options of an integrator class (dataclass fields with ``init=True``)."""
-    return [f.name for f in dataclasses.fields(cls) if f.init]
+    return [f.name for f in dataclasses.fields(cls) if f.init]  # pyright: ignore[reportArgumentType]  # a dataclass
 
 
-def method_to_data(method):
+def method_to_data(method: Integrator) -> dict[str, Any]:
     """The data form of an integrator instance (JSON- and TOML-ready).
 
     >>> from geomint import Strang, Gonzalez, RK4
@@ -46,7 +52,7 @@ def method_to_data(method):
     """
     if not isinstance(method, Integrator):
         raise TypeError(f"`method` must be a geomint Integrator; got {method!r}.")
-    data = {"name": method.name}
+    data: dict[str, Any] = {"name": method.name}
     for option in options_of(type(method)):
         value = getattr(method, option)
         if value is not None:  # None means "not set" (AVF's nodes/degree); TOML has no null
@@ -54,7 +60,7 @@ def method_to_data(method):
     return data
 
 
-def method_from_data(data, key="method"):
+def method_from_data(data: str | Mapping[str, Any], key: str = "method") -> Integrator:
     """The integrator a data form describes; ``key`` names it in errors (``"integrator.method"``).
 
     ``data`` is a short name or ``{"name": ..., option: value}``; options that

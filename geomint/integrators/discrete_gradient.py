@@ -10,15 +10,22 @@ different discrete gradient ``dg``; one compiled Newton loop
 run compiles only the discrete gradient it uses.
 """
 
+from __future__ import annotations
+
 import math
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 from .._kernels import discrete_field as _discrete_field
 from .._kernels import layout
 from .base import Integrator, Traits
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from .base import StageData
 
 
 @dataclass(frozen=True)
@@ -42,7 +49,7 @@ class DiscreteGradient(Integrator):
     kind: ClassVar[int]
     damped: ClassVar[bool] = False
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if isinstance(self.max_newton_iter, bool) or not isinstance(self.max_newton_iter, int) or not 1 <= self.max_newton_iter <= 10**6:
             raise ValueError(f"`max_newton_iter` must be an integer in [1, 10**6]; got {self.max_newton_iter!r}.")
         if not isinstance(self.compensated, bool):
@@ -51,21 +58,22 @@ class DiscreteGradient(Integrator):
     def _coeffs(self):
         return np.empty(0)
 
-    def stage(self, system):
+    def stage(self, system: Any) -> StageData:
         return layout.LEAF_DISCRETE_GRADIENT, self.kind, self.max_newton_iter, self.damped, self.compensated, self._coeffs()
 
-    def error_estimate(self):
+    def error_estimate(self) -> tuple[int, float]:
         """Against the explicit RK4 step from the same state (``layout.RK4_REFERENCE``); damped methods,
         made for stiff relaxation where an explicit reference is unstable, by step doubling."""
         return (layout.DOUBLING if self.damped else layout.RK4_REFERENCE), self.order
 
-    def lower(self, system):
+    def lower(self, system: Any) -> layout.DiscreteGradientStep:
         return layout.DiscreteGradientStep(
             layout.KIND_MARKERS[self.kind](self.kind), self.max_newton_iter,
             layout.Damped(True) if self.damped else layout.Undamped(False), self.compensated, self._coeffs()
         )
 
-    def discrete_gradients(self, system, x, x_new):
+    def discrete_gradients(self, system: Any, x: npt.ArrayLike, x_new: npt.ArrayLike,
+                           ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
         """``(dgH, dgS, Jbar)`` at the pair of states ``(x, x_new)``, as the step uses them.
 
         ``dgH . (x_new - x) = H(x_new) - H(x)`` to round-off (likewise for S),
@@ -73,7 +81,7 @@ class DiscreteGradient(Integrator):
         """
         out = np.empty((3, 3))
         pair = [np.ascontiguousarray(v, dtype=np.float64) for v in (x, x_new)]
-        _discrete_field.evaluate(system.model, layout.KIND_MARKERS[self.kind](self.kind), self._coeffs(), *pair, out)
+        _discrete_field.evaluate(system.model, layout.KIND_MARKERS[self.kind](self.kind), self._coeffs(), *pair, out)  # pyright: ignore[reportCallIssue]
         return out[0], out[1], out[2]
 
 
@@ -185,7 +193,7 @@ class AVF(DiscreteGradient):
     traits: ClassVar[Traits] = Traits(order=2, energy_exact=True, dissipative=True, symmetric=True, implicit=True)
     kind: ClassVar[int] = layout.AVF
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         super().__post_init__()
         for arg, value, low, high in (("nodes", self.nodes, 1, 16), ("degree", self.degree, 1, 32)):
             if value is not None and (isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high):
@@ -197,7 +205,7 @@ class AVF(DiscreteGradient):
             )
 
     @property
-    def n_nodes(self):
+    def n_nodes(self) -> int:
         """The number of Gauss-Legendre nodes used."""
         if self.nodes is not None:
             return self.nodes

@@ -8,13 +8,18 @@ bodies and oscillator declare theirs); ``solve`` raises ``ValueError`` for a
 system that does not.
 """
 
+from __future__ import annotations
+
 import math
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from .._kernels import layout
 from .base import Integrator, Traits
 from .program import Program
+
+if TYPE_CHECKING:
+    from .base import StageData
 
 
 @dataclass(frozen=True)
@@ -25,7 +30,7 @@ class _HamiltonianFlow(Integrator):
     leaf_code: ClassVar[int]
     applies_to: ClassVar[str]
 
-    def check_system(self, system):
+    def check_system(self, system: Any) -> None:
         if self.name not in system.exact_flows:
             raise ValueError(
                 f"`method` {self!r} applies only to systems that declare exact_flows={{'{self.name}': ...}} "
@@ -33,13 +38,13 @@ class _HamiltonianFlow(Integrator):
                 "Use Gonzalez() for this flow."
             )
 
-    def stage(self, system):
+    def stage(self, system: Any) -> StageData:
         return self.leaf_code, 0, 0, 0, 0, system.exact_flows[self.name]
 
-    def program(self):
+    def program(self) -> Program:
         return Program(((self, "hamiltonian", 1.0),))
 
-    def lower(self, system):
+    def lower(self, system: Any) -> tuple:
         if system.eps != 0.0:
             raise ValueError(
                 f"`method` {self!r} integrates the Hamiltonian part only, so alone it needs eps = 0; got eps = "

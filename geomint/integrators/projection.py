@@ -1,7 +1,9 @@
 """Projection onto ``H = H0`` that never raises S: any method made energy-exact."""
 
+from __future__ import annotations
+
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import Any, ClassVar
 
 from .._kernels import layout
 from .base import Integrator, Traits
@@ -53,7 +55,7 @@ class Projected(Programmed, Integrator):
 
     name: ClassVar[str] = "projected"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if not isinstance(self.method, Integrator) or isinstance(self.method, Projected):
             raise TypeError(f"`method` must be a geomint Integrator that is not already projected; got {self.method!r}.")
         if not self.method.whole_field:
@@ -70,26 +72,26 @@ class Projected(Programmed, Integrator):
             raise ValueError(f"`max_iter` must be an integer in [1, 10**6]; got {self.max_iter!r}.")
 
     @property
-    def traits(self):
+    def traits(self) -> Traits:
         return Traits(order=self.method.order, energy_exact=True, dissipative=True, symmetric=self.symmetric,
                       implicit=self.method.implicit)
 
-    def program(self):
+    def program(self) -> Program:
         inner = program_of(self.method)
         mode = layout.SYMMETRIC if self.symmetric else layout.STANDARD
         return Program(inner.stages, inner.gammas, inner.monotone, mode, self.max_iter)
 
-    def sub_methods(self):
+    def sub_methods(self) -> tuple[Integrator, ...]:
         return (self.method,)
 
-    def error_estimate(self):
+    def error_estimate(self) -> tuple[int, float]:
         """An embedded pair's own estimate (the error of the explicit step the projection then moves by
         about as much); step doubling for any other method."""
         if isinstance(self.method, EmbeddedRungeKutta):
             return self.method.error_estimate()
         return super().error_estimate()
 
-    def lower(self, system):
+    def lower(self, system: Any) -> tuple:
         if isinstance(self.method, EmbeddedRungeKutta):
             return self.method.lower(system, projection=layout.STANDARD, max_iter=self.max_iter)
         return super().lower(system)

@@ -1,14 +1,19 @@
 """Generic Runge-Kutta methods: the classical RK4 baseline and explicit embedded pairs."""
 
+from __future__ import annotations
+
 import math
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 from .._kernels import layout
 from . import tableaux
 from .base import Integrator, Traits
+
+if TYPE_CHECKING:
+    from .base import StageData
 
 
 @dataclass(frozen=True)
@@ -23,10 +28,10 @@ class RK4(Integrator):
     name: ClassVar[str] = "rk4"
     traits: ClassVar[Traits] = Traits(order=4, energy_exact=False, dissipative=False, symmetric=False, implicit=False)
 
-    def stage(self, system):
+    def stage(self, system: Any) -> StageData:
         return layout.LEAF_RK4, 0, 0, 0, 0, ()
 
-    def lower(self, system):
+    def lower(self, system: Any) -> layout.RungeKutta4:
         return layout.RungeKutta4(4)
 
 
@@ -45,18 +50,19 @@ class EmbeddedRungeKutta(Integrator):
     tableau: ClassVar[tuple]
 
     @property
-    def traits(self):
+    def traits(self) -> Traits:
         return Traits(order=self.tableau[5], energy_exact=False, dissipative=False, symmetric=False, implicit=False)
 
     @property
-    def error_order(self):
+    def error_order(self) -> float:
         """Order of the embedded solution the error estimate measures."""
         return self.tableau[6]
 
-    def error_estimate(self):
+    def error_estimate(self) -> tuple[int, float]:
         return layout.EMBEDDED, self.error_order
 
-    def lower(self, system, projection=layout.NO_PROJECTION, max_iter=50):
+    def lower(self, system: Any, projection: int = layout.NO_PROJECTION, max_iter: int = 50,
+              ) -> layout.EmbeddedPairStep:
         a_rows, b, _, e, e_low = self.tableau[:5]
         s = len(b)
         a = np.zeros((s, s))

@@ -23,7 +23,7 @@ class _Splitting(Programmed, Integrator):
     hamiltonian_part: Integrator = field(default_factory=Gonzalez)
     gradient_part: Integrator = field(default_factory=Gonzalez)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for argument, method in (("hamiltonian_part", self.hamiltonian_part), ("gradient_part", self.gradient_part)):
             if not isinstance(method, Integrator):
                 raise TypeError(f"`{argument}` must be a geomint Integrator; got {method!r}.")
@@ -39,7 +39,7 @@ class _Splitting(Programmed, Integrator):
         return Traits(order=order, energy_exact=a.energy_exact and b.energy_exact, dissipative=a.dissipative and b.dissipative,
                       symmetric=symmetric, implicit=a.implicit or b.implicit)
 
-    def sub_methods(self):
+    def sub_methods(self) -> tuple[Integrator, ...]:
         return (self.hamiltonian_part, self.gradient_part)
 
 
@@ -56,10 +56,10 @@ class Lie(_Splitting):
     name: ClassVar[str] = "lie"
 
     @property
-    def traits(self):
+    def traits(self) -> Traits:
         return self._traits(1, False)
 
-    def program(self):
+    def program(self) -> Program:
         return Program(((self.hamiltonian_part, "hamiltonian", 1.0), (self.gradient_part, "gradient", 1.0)))
 
 
@@ -74,10 +74,10 @@ class Strang(_Splitting):
     name: ClassVar[str] = "strang"
 
     @property
-    def traits(self):
+    def traits(self) -> Traits:
         a, b = self.hamiltonian_part, self.gradient_part
         return self._traits(min(2, a.order, b.order), a.symmetric and b.symmetric)
 
-    def program(self):
+    def program(self) -> Program:
         a, b = self.hamiltonian_part, self.gradient_part
         return Program(((a, "hamiltonian", 0.5), (b, "gradient", 1.0), (a, "hamiltonian", 0.5)))

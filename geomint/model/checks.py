@@ -8,6 +8,10 @@ relative.  A declared exact flow (``exact_flows``) is checked the same way.
 A violation raises ``ValueError`` naming the function, the rule and the point.
 """
 
+from __future__ import annotations
+
+from typing import Any
+
 import numpy as np
 
 from .. import _user_errors, _validate
@@ -15,7 +19,7 @@ from .. import _user_errors, _validate
 SAMPLES = np.random.default_rng(20261121).uniform(-1.0, 1.0, size=(6, 3))
 
 
-def check_structure(system):
+def check_structure(system: Any) -> None:  # a MetriplecticSystem (model.system imports this module)
     """Gradients vs finite differences, Casimir ``grad S x J = 0``, Jacobi, skew P, at sample points."""
     try:
         _check_samples(system)
@@ -77,7 +81,7 @@ def _require(name, points, got, want, rule, scale=None):
 _EXACT_FLOW_DATA = {"rigid_body_flow": 3, "rotor_splitting": 0, "oscillator_rotation": 0}
 
 
-def declared_exact_flows(exact_flows):
+def declared_exact_flows(exact_flows: dict[str, Any] | None) -> dict[str, tuple[float, ...]]:
     """``exact_flows`` (a dict ``{name: data}`` or None) checked as a declaration: known names, data as floats."""
     if exact_flows is None:
         return {}
@@ -125,7 +129,7 @@ _EXACT_FLOW_CHECKS = {"rigid_body_flow": _check_rigid_body, "rotor_splitting": _
                       "oscillator_rotation": _check_rotation}
 
 
-def check_exact_flows(system):
+def check_exact_flows(system: Any) -> None:  # a MetriplecticSystem (model.system imports this module)
     """Each exact flow ``system.exact_flows`` declares holds at the sample points."""
     for flow, data in system.exact_flows.items():
         _EXACT_FLOW_CHECKS[flow](system, data)

@@ -7,8 +7,10 @@ signature once, here; its return type decides the compiled kernel variant
 ``NUMBA_DISABLE_JIT=1`` plain Python functions are taken as they are.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass
-from typing import Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import numba
 import numpy as np
@@ -16,6 +18,9 @@ from numba.core.dispatcher import Dispatcher
 from numba.core.types.function_type import CompileResultWAP
 
 from .checks import SAMPLES
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
 _VECTOR = numba.types.float64[::1]
 _SIGNATURE = (_VECTOR, _VECTOR)
@@ -64,7 +69,7 @@ class ModelFunctions:
 
 
 def _compiled_return_type(name, fn):
-    if numba.config.DISABLE_JIT:
+    if numba.config.DISABLE_JIT:  # pyright: ignore[reportPrivateImportUsage, reportAttributeAccessIssue]
         if not callable(fn):
             raise TypeError(f"`{name}` must be a function of (x, params); got {type(fn).__name__}.")
         return None
@@ -80,16 +85,16 @@ def _compiled_return_type(name, fn):
     return fn.overloads[_SIGNATURE].signature.return_type
 
 
-def first_class(fn):
+def first_class(fn: Any) -> Any:
     """A jitted user function as a first-class function object for the kernels."""
-    if numba.config.DISABLE_JIT:
+    if numba.config.DISABLE_JIT:  # pyright: ignore[reportPrivateImportUsage, reportAttributeAccessIssue]
         return fn
     if _SIGNATURE not in fn.overloads:  # a system unpickled in another process (a Dask worker)
         fn.compile(_SIGNATURE)
     return CompileResultWAP(fn.overloads[_SIGNATURE])
 
 
-def scalar_function(name, fn):
+def scalar_function(name: str, fn: Any) -> Any:
     """``fn`` if it compiles for ``(x, params)`` and returns a float64, else a ``TypeError`` saying how to write it."""
     rtype = _compiled_return_type(name, fn)
     if rtype is not None and rtype not in _SCALAR_TYPES:
@@ -97,7 +102,7 @@ def scalar_function(name, fn):
     return fn
 
 
-def vector_function(name, fn):
+def vector_function(name: str, fn: Any) -> str:
     """The vector form ``fn`` returns (``"tuple"``, ``"array"``, or ``"python"`` without numba), else a ``TypeError``."""
     rtype = _compiled_return_type(name, fn)
     if rtype is None:  # NUMBA_DISABLE_JIT=1: plain Python, any sequence of 3 floats will do
@@ -109,17 +114,18 @@ def vector_function(name, fn):
     return _VECTOR_FORMS[rtype]
 
 
-def matrix_function(name, fn):
+def matrix_function(name: str, fn: Any) -> None:
     """A ``TypeError`` unless ``fn`` compiles for ``(x, params)`` and returns a contiguous float64 matrix."""
     rtype = _compiled_return_type(name, fn)
     if rtype is not None and rtype != _MATRIX_TYPE:
         raise TypeError(f"`{name}` must return a (3, 3) contiguous float64 array; it returns {rtype}.")
 
 
-def check_shapes(functions, params):
+def check_shapes(functions: ModelFunctions, params: npt.NDArray[np.float64]) -> None:
     """Array-returning functions give 3 values (P a 3x3 matrix) at a sample point: their type cannot
     say so, and the kernels would read past a shorter array."""
-    wanted = {"grad_H": (functions.grad_H, (3,)), "grad_S": (functions.grad_S, (3,))}
+    wanted: dict[str, tuple[Callable, tuple[int, ...]]] = {
+        "grad_H": (functions.grad_H, (3,)), "grad_S": (functions.grad_S, (3,))}
     wanted["P" if functions.poisson_form == "matrix" else "J"] = (
         functions.poisson, (3, 3) if functions.poisson_form == "matrix" else (3,))
     for name, (fn, shape) in wanted.items():

@@ -13,7 +13,10 @@ The user's functions are typed and compiled by ``functions``, the structure is
 checked by ``checks``, and the cross products are ``axial``'s (3-D only).
 """
 
+from __future__ import annotations
+
 import functools
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -22,6 +25,13 @@ from .._kernels import field as _field
 from .._kernels.layout import Model
 from .checks import check_exact_flows, check_structure, declared_exact_flows
 from .functions import ModelFunctions, check_shapes, first_class, matrix_function, scalar_function, vector_function
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Mapping, Sequence
+
+    import numpy.typing as npt
+
+    Vector = npt.NDArray[np.float64]
 
 
 @functools.cache
@@ -88,8 +98,13 @@ class MetriplecticSystem:
     np.float64(-0.23)
     """
 
-    def __init__(self, *, H, grad_H, S, grad_S, J=None, P=None, eps=1.0, params=(), name="custom", exact_flows=None,
-                 check=True):
+    #: the formulas of a system made by ``from_expressions`` (only there), for saved results
+    expressions: dict[str, Any]
+
+    def __init__(self, *, H: Callable[..., Any], grad_H: Callable[..., Any], S: Callable[..., Any],
+                 grad_S: Callable[..., Any], J: Callable[..., Any] | None = None, P: Callable[..., Any] | None = None,
+                 eps: float = 1.0, params: npt.ArrayLike = (), name: str = "custom",
+                 exact_flows: dict[str, Any] | None = None, check: bool = True) -> None:
         if (J is None) == (P is None):
             raise ValueError("give exactly one of `J` (axial vector) and `P` (skew matrix) for the Poisson tensor.")
         self.eps = _check_eps(eps)
@@ -107,7 +122,7 @@ class MetriplecticSystem:
             raise TypeError(f"grad_H, grad_S and J must return the same kind of vector; {listed}. Make them all tuples.")
         self.functions = ModelFunctions(
             H=scalar["H"], grad_H=grad_H, S=scalar["S"], grad_S=grad_S,
-            poisson=J if J is not None else P,
+            poisson=J if J is not None else P,  # pyright: ignore[reportArgumentType]  # one of them is given
             vector_form=forms["grad_H"], poisson_form="axial" if J is not None else "matrix",
         )
         check_shapes(self.functions, self._params)
@@ -119,7 +134,7 @@ class MetriplecticSystem:
 
     # -- the model as kernels receive it ------------------------------------------------
     @property
-    def model(self):
+    def model(self) -> Model:
         """``layout.Model(H, grad_H, S, grad_S, J or P, params, origin)``: the model as every kernel receives it.
 
         The functions are handed over as compiled first-class function objects
@@ -132,8 +147,8 @@ class MetriplecticSystem:
         """
         if "_model" not in self.__dict__:
             f = self.functions
-            self._model = Model(*(first_class(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S, f.poisson)), self._params,
-                                self._origin())
+            self._model = Model(*(first_class(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S, f.poisson)),  # pyright: ignore[reportCallIssue]
+                                self._params, self._origin())  # pyright: ignore[reportCallIssue]  # 5 functions
         return self._model
 
     def _origin(self, params=None):
@@ -152,11 +167,12 @@ class MetriplecticSystem:
         return origin
 
     @property
-    def params(self):
+    def params(self) -> Vector:
         """A copy of the parameter vector."""
         return self._params.copy()
 
-    def with_effects(self, *, hamiltonian=None, eps=None, params=None):
+    def with_effects(self, *, hamiltonian: bool | None = None, eps: float | None = None,
+                     params: npt.ArrayLike | None = None) -> MetriplecticSystem:
         """The same system with the Hamiltonian part switched on/off, another eps and/or other params.
 
         ``hamiltonian=False`` leaves the gradient system ``dx/dt = eps xi_g``
@@ -185,14 +201,14 @@ class MetriplecticSystem:
             other.eps = _check_eps(eps)
         return other
 
-    def __getstate__(self):
+    def __getstate__(self) -> dict[str, Any]:
         """Pickled without the compiled model (function addresses of this process), rebuilt on first use: a
         system can be shipped to other processes (Dask workers)."""
         state = dict(self.__dict__)
         state.pop("_model", None)
         return state
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         effects = "" if self.hamiltonian else ", hamiltonian=False"
         return f"MetriplecticSystem(name={self.name!r}, eps={self.eps!r}{effects}, params={self.params.tolist()!r})"
 
@@ -212,7 +228,7 @@ class MetriplecticSystem:
             raise raised[0]
         return out
 
-    def _at(self, x, which):
+    def _at(self, x: npt.ArrayLike, which: Sequence[int]) -> Sequence[Any]:
         """The functions ``which`` (indices into H, S, grad H, grad S, J) at ``x``: scalars, and vectors as
         3-tuples of components, floats for one state (3,) and arrays for many (n, 3); ``_array`` makes
         arrays of them.  The same formulas then serve both."""
@@ -257,7 +273,7 @@ class MetriplecticSystem:
             j = axial.components(j)
         return np.array(axial.xi_of(gh, gs, j, eps))
 
-    def raising_function(self, x):
+    def raising_function(self, x: npt.ArrayLike) -> tuple[str, Exception] | None:
         """``(name, exception)`` of the first user function that raises at ``x``, or None if none does."""
         f, p = self.functions, self._params
         x = np.array(x, dtype=np.float64)
@@ -269,36 +285,36 @@ class MetriplecticSystem:
                 return name, error
         return None
 
-    def H(self, x):
+    def H(self, x: npt.ArrayLike) -> Any:  # a float at one state (3,), an array at many (n, 3)
         """Energy at ``x``."""
         return self._at(x, (_H,))[0]
 
-    def S(self, x):
+    def S(self, x: npt.ArrayLike) -> Any:  # a float at one state (3,), an array at many (n, 3)
         """Casimir (entropy-like function) at ``x``."""
         return self._at(x, (_S,))[0]
 
-    def grad_H(self, x):
+    def grad_H(self, x: npt.ArrayLike) -> Vector:
         return _array(self._at(x, (_GRAD_H,))[0])
 
-    def grad_S(self, x):
+    def grad_S(self, x: npt.ArrayLike) -> Vector:
         return _array(self._at(x, (_GRAD_S,))[0])
 
-    def J(self, x):
+    def J(self, x: npt.ArrayLike) -> Vector:
         """Axial vector of the Poisson tensor, ``P v = v x J``."""
         return _array(self._at(x, (_J,))[0])
 
-    def xi_P(self, x):
+    def xi_P(self, x: npt.ArrayLike) -> Vector:
         """Hamiltonian field ``grad H x J``."""
         gh, j = self._at(x, (_GRAD_H, _J))
         return _array(_axial().cross(gh, j))
 
-    def xi_g(self, x):
+    def xi_g(self, x: npt.ArrayLike) -> Vector:
         """Gradient field ``g grad S = grad H x (grad H x grad S)`` (without eps)."""
         gh, gs = self._at(x, (_GRAD_H, _GRAD_S))
         cross = _axial().cross
         return _array(cross(gh, cross(gh, gs)))
 
-    def xi(self, x):
+    def xi(self, x: npt.ArrayLike) -> Vector:
         """The field ``xi_P + eps xi_g`` (without ``xi_P`` when the Hamiltonian part is off)."""
         X = _states(x)
         if X.shape == (3,):
@@ -309,24 +325,26 @@ class MetriplecticSystem:
             (gh, gs), j = self._at(X, (_GRAD_H, _GRAD_S)), None
         return _array(_axial().xi_of(gh, gs, j, self.eps))
 
-    def g(self, x):
+    def g(self, x: npt.ArrayLike) -> Vector:
         """The metric ``grad H (x) grad H - I |grad H|^2``, shape (3, 3) or (n, 3, 3)."""
         gh = self.grad_H(x)
         outer = gh[..., :, None] * gh[..., None, :]
         return outer - np.eye(3) * np.sum(gh * gh, axis=-1)[..., None, None]
 
-    def sigma(self, x):
+    def sigma(self, x: npt.ArrayLike) -> Vector:
         """``sigma = grad S x grad H``; ``dS/dt = -eps |sigma|^2``."""
         gh, gs = self._at(x, (_GRAD_H, _GRAD_S))
         return _array(_axial().cross(gs, gh))
 
-    def dS_dt(self, x):
+    def dS_dt(self, x: npt.ArrayLike) -> Any:  # a float at one state (3,), an array at many (n, 3)
         """Rate of change of S along the flow, ``-eps |sigma|^2``."""
         s = self.sigma(x)
         return -self.eps * np.sum(s * s, axis=-1)
 
     @classmethod
-    def from_expressions(cls, *, H, S, J=None, P=None, params=None, eps=1.0, name="expressions"):
+    def from_expressions(cls, *, H: str, S: str, J: Sequence[str] | None = None,
+                         P: Sequence[Sequence[str]] | None = None, params: Mapping[str, float] | None = None,
+                         eps: float = 1.0, name: str = "expressions") -> MetriplecticSystem:
         """A system from formulas (strings), e.g. ``H="(y**2 + z**2)/2 - r*z"``, ``J=("-x", "0", "sigma")``.
 
         Text is parsed by a whitelist grammar (never evaluated), gradients are exact, the
@@ -336,7 +354,7 @@ class MetriplecticSystem:
         from . import expressions
 
         system = cls(**expressions.build(H=H, S=S, J=J, P=P, params=params, eps=eps, name=name))
-        poisson = {"J": list(J)} if J is not None else {"P": [list(row) for row in P]}
+        poisson = {"J": list(J)} if J is not None else {"P": [list(row) for row in P]}  # pyright: ignore[reportOptionalIterable]  # J or P
         system.expressions = {"H": H, "S": S, **poisson, "params": dict(params or {})}  # for saved results
         return system
 

@@ -1,10 +1,22 @@
 """What the figure modules share: matplotlib imported on use, line styles and one key per line."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+    from types import ModuleType
+
+    from matplotlib.axes import Axes
+
+    from ..results.solution import Solution
+
 _MARKERS = ("o", "s", "^", "v", "D", "P", "X", "<", ">", "*")
 _LINESTYLES = ("-", "--", ":", "-.")
 
 
-def pyplot():
+def pyplot() -> ModuleType:
     """``matplotlib.pyplot`` with the Agg backend, imported on first use (``import geomint`` does not load it)."""
     import matplotlib
 
@@ -14,7 +26,7 @@ def pyplot():
     return plt
 
 
-def style(i, n=1):
+def style(i: int, n: int = 1) -> dict[str, Any]:
     """Line style of the ``i``-th of ``n`` lines: colour, line style and marker, distinct up to 40.
 
     Lines 1-10 get the 10 colours of ``tab10``, solid; lines 11-20 the same
@@ -28,11 +40,11 @@ def style(i, n=1):
                 marker=_MARKERS[(i + i // 10) % len(_MARKERS)] if n > 1 else None)
 
 
-def as_list(solutions):
+def as_list(solutions: Any) -> list[Any]:
     return list(solutions) if isinstance(solutions, (list, tuple)) else [solutions]
 
 
-def line_labels(solutions, labels):
+def line_labels(solutions: Sequence[Solution], labels: Sequence[str] | None) -> list[str]:
     """One key per line: the given labels, else the method (if methods differ) and/or the initial state;
     a failed run's key says where it stopped."""
     if labels is not None:
@@ -52,7 +64,7 @@ def line_labels(solutions, labels):
             for sol, name in zip(solutions, names)]
 
 
-def new_axis(ax, projection=None):
+def new_axis(ax: Axes | None, projection: str | None = None) -> Axes:
     if ax is not None:
         return ax
     fig = pyplot().figure(figsize=(7.5, 5.0) if projection is None else (7.5, 7.0))

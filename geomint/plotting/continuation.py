@@ -1,11 +1,24 @@
 """Eigenvalue real parts against eps, from ``geomint.continuation.continuation``."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ._common import pyplot
 
+if TYPE_CHECKING:
+    import os
+    from collections.abc import Iterable
 
-def continuation_figure(results, path=None, columns=3):
+    from matplotlib.figure import Figure
+
+    from ..analysis.continuation import Continuation
+
+
+def continuation_figure(results: Iterable[Continuation], path: str | os.PathLike[str] | None = None, columns: int = 3,
+                        ) -> Figure:
     """Eigenvalue real parts against eps, one panel per ``Continuation`` in ``results``.
 
     For an isolated equilibrium both tangent-plane eigenvalues' real parts are

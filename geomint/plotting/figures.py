@@ -1,6 +1,9 @@
 """A scene's figure sheets: ``draw`` writes each of ``geomint.scene.FIGURES`` as ``<name>.<figure>.png``."""
 
+from __future__ import annotations
+
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -10,8 +13,15 @@ from ._common import pyplot
 from .series import casimir, drift, plot_energy_error
 from .surface import level_surface
 
+if TYPE_CHECKING:
+    import os
 
-def draw(result, directory):
+    from matplotlib.axes import Axes
+
+    from ..scene.run import SceneResult
+
+
+def draw(result: SceneResult, directory: str | os.PathLike[str]) -> list[Path]:
     """Write the scene's figures under ``directory``; returns their paths."""
     plt = pyplot()
     directory = Path(directory)
@@ -28,13 +38,13 @@ def draw(result, directory):
     return paths
 
 
-def trajectories(result, ax, legend=True):
+def trajectories(result: SceneResult, ax: Axes | None, legend: bool = True) -> Axes:
     """A scene's trajectories on its level surfaces (``level_surface`` with the scene's centre, view, sections)."""
     return level_surface(result.system, result.solutions, ax, labels=_scene_labels(result), center=_center(result),
                          view=result.scene.view, sections=result.scene.sections, legend=legend)
 
 
-def invariants(result, ax_H, ax_S, legend=True):
+def invariants(result: SceneResult, ax_H: Axes, ax_S: Axes, legend: bool = True) -> None:
     """A scene's energy error and S against t (``plot_energy_error`` and ``casimir``)."""
     labels = _scene_labels(result)
     plot_energy_error(result.solutions, ax_H, labels=labels, legend=legend)

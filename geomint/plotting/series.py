@@ -5,16 +5,30 @@ key for every line) and returns the axis it drew on (a new figure's when
 ``ax`` is None).  Nothing here depends on the dimension of the state.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .. import diagnostics as _diagnostics
 from ._common import as_list, line_labels, new_axis, style
 
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    import numpy.typing as npt
+    from matplotlib.axes import Axes
+
+    from ..results.solution import Solution
+    from ..studies import Curve
+
 _TINY = _diagnostics.EPS / 8  # where exact zeros of an error sit on a log axis
 _ULP_LABEL = "1 ulp (machine epsilon)"  # ε is the dissipation parameter; multiples of machine epsilon are ulp
 
 
-def plot_energy_error(solutions, ax=None, *, labels=None, legend=True):
+def plot_energy_error(solutions: Solution | Sequence[Solution], ax: Axes | None = None, *,
+                      labels: Sequence[str] | None = None, legend: bool = True) -> Axes:
     """The running maximum of ``|H - H0| / |H0|`` against t, log scale; 1 ulp (machine epsilon) marked.
 
     Exact zeros are drawn at 1/8 ulp, the bottom of the axis.  (Figures write the dissipation
@@ -37,7 +51,8 @@ def plot_energy_error(solutions, ax=None, *, labels=None, legend=True):
                    len(solutions))
 
 
-def casimir(solutions, ax=None, *, labels=None, legend=True):
+def casimir(solutions: Solution | Sequence[Solution], ax: Axes | None = None, *, labels: Sequence[str] | None = None,
+            legend: bool = True) -> Axes:
     """``S(t)``, one line per solution; every saved step where S rose beyond round-off is marked."""
     solutions = as_list(solutions)
     ax = new_axis(ax)
@@ -54,7 +69,8 @@ def casimir(solutions, ax=None, *, labels=None, legend=True):
                    len(solutions), "red" if rises else "black")
 
 
-def drift(solutions, ax=None, *, labels=None, count=20, t_min=None, legend=True):
+def drift(solutions: Solution | Sequence[Solution], ax: Axes | None = None, *, labels: Sequence[str] | None = None,
+          count: int = 20, t_min: float | None = None, legend: bool = True) -> Axes:
     """Windowed maxima of ``|H - H0| / |H0|`` on log-log axes, each key with its fitted growth law.
 
     ``count`` log-spaced windows (``geomint.diagnostics.windowed_drift``); the
@@ -74,7 +90,9 @@ def drift(solutions, ax=None, *, labels=None, count=20, t_min=None, legend=True)
     return drift_windows(series, ax, legend=legend)
 
 
-def drift_windows(series, ax=None, *, legend=True, law_in_key=True, linestyles=None):
+def drift_windows(series: Sequence[tuple[str, npt.NDArray[np.float64], npt.NDArray[np.float64], float]],
+                  ax: Axes | None = None, *, legend: bool = True, law_in_key: bool = True,
+                  linestyles: Sequence[str] | None = None) -> Axes:
     """``drift`` for maxima already taken: ``series`` holds ``(label, centers, maxima, t_min)`` per line.
 
     For long runs summarised chunk by chunk in a ``geomint.diagnostics.Windows``.
@@ -105,7 +123,8 @@ def _law_text(p, law):
     return law + (f" (p = {p:.2f})" if np.isfinite(p) else "")
 
 
-def plot_work_precision(curves, ax=None, *, cost="wall", legend=True, error="global error |x(T) - x_ref(T)|"):
+def plot_work_precision(curves: Curve | Sequence[Curve], ax: Axes | None = None, *, cost: str = "wall",
+                        legend: bool = True, error: str = "global error |x(T) - x_ref(T)|") -> Axes:
     """Error against cost for ``geomint.studies.Curve`` objects, one line and key each.
 
     ``cost`` is ``"wall"`` (median seconds) or ``"nfev"`` (field evaluations);

@@ -5,11 +5,25 @@ or, where it is not star-shaped or not bounded, by marching tetrahedra in a
 box around the trajectories (``analysis.level_set.isosurface``).
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, cast
+
 import numpy as np
 
 from .. import analysis as _analysis
 from ..analysis import level_set as _level_set
 from ._common import as_list, line_labels, new_axis, pyplot, style
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    import numpy.typing as npt
+    from matplotlib.axes import Axes
+    from mpl_toolkits.mplot3d.axes3d import Axes3D
+
+    from ..model.system import MetriplecticSystem
+    from ..results.solution import Solution
 
 _EQUILIBRIUM_STYLE = {
     "stable": dict(marker="o", s=46, facecolor="black", edgecolor="black"),
@@ -26,8 +40,10 @@ def _failed(solutions):
     return [sol for sol in solutions if not sol.success]
 
 
-def level_surface(system, solutions, ax=None, *, labels=None, center=None, view=(30.0, -60.0), sections=(),
-                  legend=True):
+def level_surface(system: MetriplecticSystem, solutions: Solution | Sequence[Solution], ax: Axes | None = None, *,
+                  labels: Sequence[str] | None = None, center: npt.ArrayLike | None = None,
+                  view: tuple[float, float] = (30.0, -60.0), sections: Sequence[Sequence[float]] = (),
+                  legend: bool = True) -> Axes:
     """Trajectories on the level surfaces ``H = H0`` (the distinct initial energies, at most 3) in 3-D.
 
     Parameters
@@ -47,7 +63,7 @@ def level_surface(system, solutions, ax=None, *, labels=None, center=None, view=
         Draw the key on ``ax`` (a caller may place one itself).
     """
     solutions = as_list(solutions)
-    ax = new_axis(ax, "3d")
+    ax = cast("Axes3D", new_axis(ax, "3d"))
     ax.view_init(*view)
     center = _level_set.energy_minimiser(system) if center is None else np.asarray(center, dtype=np.float64)
     paths = np.vstack([sol.x for sol in solutions])

@@ -13,19 +13,27 @@ through them, so over a run of order ``p`` it is accurate to
 keep S monotone: only the steps themselves carry the method's structure.
 """
 
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
 
 class Hermite:
     """``sol(t)``: the state at ``t`` (shape (3,)) or at each of an array of times (shape (3, m)), as
     scipy's ``OdeSolution``; times outside ``[t_0, t_end]`` are refused."""
 
-    def __init__(self, t, x, f):
+    def __init__(self, t: npt.ArrayLike, x: npt.ArrayLike, f: npt.ArrayLike) -> None:
         self.t, self.x, self.f = np.asarray(t), np.asarray(x), np.asarray(f)
         self.t_min, self.t_max = float(min(self.t[0], self.t[-1])), float(max(self.t[0], self.t[-1]))
         self._forward = self.t[-1] >= self.t[0]
 
-    def __call__(self, t):
+    def __call__(self, t: npt.ArrayLike) -> npt.NDArray[np.float64]:
         times = np.asarray(t, dtype=np.float64)
         if times.dtype.kind != "f" or not np.all(np.isfinite(times)):
             raise ValueError(f"`t` must be finite real times; got {t!r}.")
@@ -48,6 +56,6 @@ class Hermite:
             (1 - 2 * theta) * (x1 - x0) + (theta - 1) * h * f0 + theta * h * f1)
         return u.T
 
-    def step(self, i):
+    def step(self, i: int) -> Callable[[float], npt.NDArray[np.float64]]:
         """The interpolant on step ``i`` alone, as a function of one time: ``(3,)`` array."""
         return lambda t: self._evaluate(np.array([i]), np.array([t], dtype=np.float64))[:, 0]

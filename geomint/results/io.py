@@ -19,8 +19,11 @@ allow_pickle=False)`` reads it):
 (True, True)
 """
 
+from __future__ import annotations
+
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -28,13 +31,21 @@ from ..integrators import Integrator
 from ..integrators.data import MethodDataError, method_from_data, method_to_data
 from .._files import atomic
 
+if TYPE_CHECKING:
+    import os
+
+    from ..model.system import MetriplecticSystem
+
+    #: a ``Solution`` (not imported here: ``results.solution`` imports this module)
+    Solution = Any
+
 FORMAT = "geomint-solution"
 FORMAT_VERSION = 1
 _ARRAYS = ("t", "x", "H", "S")
 _SCALARS = ("success", "status", "message", "failed_step", "n_steps", "n_newton", "nfev")
 
 
-def metadata(solution, system=None):
+def metadata(solution: Solution, system: MetriplecticSystem | None = None) -> dict[str, Any]:
     """The JSON-ready description of ``solution`` (and of ``system``, if given) that ``save`` writes."""
     from .._version import __version__
 
@@ -45,16 +56,16 @@ def metadata(solution, system=None):
             "system": None if system is None else system_metadata(system)}
 
 
-def system_metadata(system):
+def system_metadata(system: MetriplecticSystem) -> dict[str, Any]:
     """``{"name", "params", "eps", "hamiltonian"}`` of a system, with ``"expressions"`` when it has formulas."""
-    data = {"name": system.name, "params": system.params.tolist(), "eps": system.eps,
+    data: dict[str, Any] = {"name": system.name, "params": system.params.tolist(), "eps": system.eps,
             "hamiltonian": system.hamiltonian}
     if getattr(system, "expressions", None) is not None:
         data["expressions"] = system.expressions
     return data
 
 
-def save(solution, path, system=None):
+def save(solution: Solution, path: str | os.PathLike[str], system: MetriplecticSystem | None = None) -> Path:
     """Write ``solution`` to ``path`` (``.npz`` appended if missing); returns the path written.
 
     ``system`` (optional) is recorded in the metadata: name, parameters, eps.
@@ -69,13 +80,13 @@ def save(solution, path, system=None):
     return path
 
 
-def read_metadata(path):
+def read_metadata(path: str | os.PathLike[str]) -> dict[str, Any]:
     """The metadata dict of a file written by ``save`` (``ValueError`` naming the path if it is not one)."""
     with np.load(path, allow_pickle=False) as data:
         return _metadata(path, data)
 
 
-def read(path):
+def read(path: str | os.PathLike[str]) -> dict[str, Any]:
     """The fields of the ``Solution`` saved at ``path``, as keyword arguments (``geomint.load`` builds it);
     its ``method`` is rebuilt from its data form.
 
@@ -92,7 +103,7 @@ def read(path):
     return {**arrays, **{key: meta[key] for key in _SCALARS}, "method": method}
 
 
-def to_xarray(solution, system=None):
+def to_xarray(solution: Solution, system: MetriplecticSystem | None = None) -> Any:  # an xarray.Dataset
     """An ``xarray.Dataset``: ``x (t, component)``, ``H (t)``, ``S (t)``; the metadata as attributes.
 
     Attributes hold scalars and the method/system as JSON strings (netCDF-safe).

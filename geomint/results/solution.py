@@ -1,10 +1,21 @@
 """The result of ``geomint.solve``."""
 
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from . import io as _io
+
+if TYPE_CHECKING:
+    import os
+    from pathlib import Path
+
+    import numpy.typing as npt
+
+    from ..model.system import MetriplecticSystem
 
 #: machine epsilon of float64
 EPS = float(np.finfo(np.float64).eps)
@@ -93,51 +104,51 @@ class Solution:
     step_ratio: float | None = None
 
     @property
-    def y(self):
+    def y(self) -> np.ndarray:
         """The states in scipy's layout, shape (3, n) (a view of ``x``)."""
         return self.x.T
 
     @property
-    def y_events(self):
+    def y_events(self) -> list | None:
         """``x_events``, scipy's name."""
         return self.x_events
 
     @property
-    def t_final(self):
+    def t_final(self) -> float:
         """Time of the last state reached."""
         return float(self.t[-1])
 
     @property
-    def x_final(self):
+    def x_final(self) -> np.ndarray:
         """The last state reached (kept even when only every k-th state is saved)."""
         return self.x[-1]
 
     @property
-    def energy_error(self):
+    def energy_error(self) -> float:
         """``max |H - H0| / |H0|`` over the saved states (absolute when H0 = 0)."""
         H0 = self.H[0]
         return float(np.max(np.abs(self.H - H0)) / (abs(H0) if H0 != 0 else 1.0))
 
     @property
-    def S_rises(self):
+    def S_rises(self) -> int:
         """Saved consecutive pairs where S rose by more than round-off (see ``count_S_rises``)."""
         return self.count_S_rises()
 
-    def save(self, path, system=None):
+    def save(self, path: str | os.PathLike[str], system: MetriplecticSystem | None = None) -> Path:
         """Write to ``path`` (.npz with JSON metadata; ``system`` recorded if given): ``geomint.io.save``."""
         return _io.save(self, path, system)
 
-    def to_xarray(self, system=None):
+    def to_xarray(self, system: MetriplecticSystem | None = None) -> Any:  # an xarray.Dataset
         """An ``xarray.Dataset`` of this solution (optional dependency): ``geomint.io.to_xarray``."""
         return _io.to_xarray(self, system)
 
-    def count_S_rises(self, ulps=16):
+    def count_S_rises(self, ulps: float = 16) -> int:
         """Saved consecutive pairs where S rose by more than ``ulps`` ulps in forward time
         (``geomint.diagnostics.S_rises``)."""
         return len(S_rises(self, ulps))
 
 
-def S_rises(sol, ulps=16):
+def S_rises(sol: Solution, ulps: float = 16) -> npt.NDArray[np.intp]:
     """Indices ``k`` of the saved pairs where S rose in forward time: ``d (S_{k+1} - S_k) > ulps * EPS *
     max(|S_k|, |S_{k+1}|)``, ``d`` the sign of ``t_{k+1} - t_k`` (a backward run sees S rise as t falls).
 
@@ -149,7 +160,7 @@ def S_rises(sol, ulps=16):
     return np.flatnonzero(np.sign(np.diff(sol.t)) * np.diff(S) > tol)
 
 
-def load(path):
+def load(path: str | os.PathLike[str]) -> Solution:
     """The ``Solution`` saved at ``path`` by ``Solution.save`` (``geomint.results.io``); its ``method`` is
     rebuilt from its data form, or kept as that data where it cannot be (a newer geomint, a scipy label)."""
     return Solution(**_io.read(path))

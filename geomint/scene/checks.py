@@ -14,7 +14,7 @@ from ..systems import CATALOGUE
 class SceneError(ValueError):
     """A scene that cannot run: names the file, the key and the problem."""
 
-    def __init__(self, source, key, problem):
+    def __init__(self, source: str, key: str | None, problem: str) -> None:
         self.source, self.key, self.problem = source, key, problem
         where = f"{source}: " if source else ""
         super().__init__(f"{where}`{key}`: {problem}" if key else f"{where}{problem}")

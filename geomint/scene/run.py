@@ -8,13 +8,15 @@ writes the checkpoints, which the ensemble engine does not.  Both give each traj
 bit (``solve_ensemble`` runs ``solve``'s step loop), so which one ran does not show in the results.
 """
 
+from __future__ import annotations
+
 import json
 import shutil
 import time
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -26,6 +28,16 @@ from ..run.ensemble import solve_ensemble
 from ..run.solve import solve
 from ..run.status import Status
 from .schema import OBSERVABLES, Scene
+
+if TYPE_CHECKING:
+    import os
+    from collections.abc import Callable
+
+    import numpy.typing as npt
+
+    from ..integrators import Integrator
+    from ..model.system import MetriplecticSystem
+    from ..run.ensemble import Ensemble
 
 #: the most steps of a trajectory run together with others through ``solve_ensemble`` (and about the steps of
 #: one chunk of them: progress reports and Ctrl-C come between chunks); longer ones run alone through ``solve``
@@ -57,18 +69,18 @@ class SceneResult:
     """
 
     scene: Scene
-    system: object
-    method: object
+    system: MetriplecticSystem
+    method: Integrator
     solutions: list
     records: dict
     wall: list
     partial: bool = False
 
     @property
-    def success(self):
+    def success(self) -> bool:
         return all(sol.success for sol in self.solutions)
 
-    def summary(self):
+    def summary(self) -> dict[str, Any]:
         """A JSON-ready dict: invariant errors, S rises, work, wall time, versions, the scene."""
         ulp = float(np.finfo(np.float64).eps)  # machine epsilon; `eps` is the dissipation parameter
         trajectories = []
@@ -98,7 +110,9 @@ class SceneResult:
         }
 
 
-def run_scene(scene, progress=None, checkpoint=None, resume=False, before_steps=None):
+def run_scene(scene: Scene, progress: Callable[[int], object] | None = None,
+              checkpoint: tuple[str | os.PathLike[str], int | None] | None = None, resume: bool = False,
+              before_steps: Callable[[MetriplecticSystem, Integrator], object] | None = None) -> SceneResult:
     """Run a scene; ``progress(n)`` is called with the number of steps done since its last call, and
     ``before_steps(system, method)`` once the scene and its checkpoint are validated, before the first step.
 
@@ -164,16 +178,18 @@ def _together(scene, system, method, states, progress):
                               progress=None if progress is None else report, chunk=max(1, ENSEMBLE_STEPS // steps))
     seconds = time.perf_counter() - started
     for i in np.flatnonzero(ensemble.status == Status.INVALID_START):
-        solve(system, states[i], span, scene.h, method=method, save_every=save_every)  # raises solve's error
+        # raises solve's error (and solve takes save_every=None)
+        solve(system, states[i], span, scene.h, method=method, save_every=save_every)  # pyright: ignore[reportArgumentType]
     ran = int(np.count_nonzero(ensemble.status != Status.NOT_RUN))  # chunks run in order: the first ``ran``
     solutions = [ensemble.solution(i) for i in range(ran)]
     rows = ensemble.rows[:ran]
     used = max(1, int(rows.max(initial=0)))
-    run = _Run(*(a[:ran, :used] for a in (ensemble.t, ensemble.x, ensemble.H, ensemble.S)), rows)
+    run = _Run(*(a[:ran, :used] for a in (ensemble.t, ensemble.x, ensemble.H, ensemble.S)), rows)  # pyright: ignore[reportCallIssue]
     return solutions, [seconds / len(states)] * ran, run
 
 
-def solve_together(system, X0, t_span, h, method, **options):
+def solve_together(system: MetriplecticSystem, X0: npt.ArrayLike, t_span: tuple[float, float], h: float | None,
+                   method: Integrator | str | None, **options: Any) -> Ensemble:
     """``geomint.solve_ensemble``, each trajectory's caveat said as an ``AccuracyWarning`` of its own, as
     ``geomint.solve`` says it (the ensemble says one for all)."""
     with warnings.catch_warnings():
@@ -185,7 +201,7 @@ def solve_together(system, X0, t_span, h, method, **options):
     return ensemble
 
 
-def runs_together(scene, checkpoint=None):
+def runs_together(scene: Scene, checkpoint: tuple[str | os.PathLike[str], int | None] | None = None) -> bool:
     """Whether ``run_scene`` runs the trajectories of ``scene`` together through ``solve_ensemble`` (else one by
     one through ``solve``; the module docstring says when)."""
     return checkpoint is None and scene.steps_per_trajectory <= ENSEMBLE_STEPS
@@ -204,15 +220,16 @@ def _one_by_one(scene, system, method, states, progress, checkpoint):
         done = [0]
 
         def report(steps, done=done):
-            progress(steps - done[0])
+            progress(steps - done[0])  # pyright: ignore[reportOptionalCall]  # passed on only with a progress
             done[0] = steps
 
         start = time.perf_counter()
         running = None if folder is None else folder / "running.npz"
         try:
-            sol = solve(system, x0, (0.0, scene.duration), scene.h, method=method, save_every=_save_every(scene),
+            sol = solve(system, x0, (0.0, scene.duration), scene.h, method=method,
+                        save_every=_save_every(scene),  # pyright: ignore[reportArgumentType]  # None: the final state
                         progress=None if progress is None else report,
-                        checkpoint=None if folder is None else (running, checkpoint[1]),
+                        checkpoint=None if folder is None else (running, checkpoint[1]),  # pyright: ignore[reportOptionalSubscript]
                         resume=running if running is not None and running.exists() else None)
         except KeyboardInterrupt:  # Ctrl-C outside the compiled loop (which answers it with status 2)
             break
@@ -220,7 +237,7 @@ def _one_by_one(scene, system, method, states, progress, checkpoint):
         solutions.append(sol)
         if folder is not None and sol.status != Status.INTERRUPTED:
             _io.save(sol, folder / f"{i}.npz")
-            running.unlink(missing_ok=True)
+            running.unlink(missing_ok=True)  # pyright: ignore[reportOptionalMemberAccess]  # with a folder
         if sol.status == Status.INTERRUPTED:
             break
     return solutions, wall
@@ -236,7 +253,7 @@ def _stacked(solutions):
         for i, sol in enumerate(solutions):
             array[i, :rows[i]] = getattr(sol, name)
         arrays.append(array)
-    return _Run(*arrays, rows)
+    return _Run(*arrays, rows)  # pyright: ignore[reportCallIssue]  # the four arrays
 
 
 class CheckpointError(ValueError):
@@ -270,7 +287,7 @@ def _checkpoint_folder(scene, checkpoint, resume):
     return folder, int(steps)
 
 
-def versions():
+def versions() -> dict[str, str]:
     """Versions of geomint, Python and the numerical libraries, for summaries."""
     import platform
 

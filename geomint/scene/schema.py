@@ -4,11 +4,13 @@ A scene is validated field by field when it is made (``checks._Checker``) and fu
 which writes out every default, builds the system and the method, samples the initial states and keeps them.
 """
 
+from __future__ import annotations
+
 import dataclasses
 import inspect
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -21,6 +23,11 @@ from ..run.controller import step_count
 from ..systems import CATALOGUE
 from .checks import _EXPRESSION_KEYS, _KEY_OF, _LAYOUT, SceneError, _Checker, _describe, _unknown, _with_options
 from .toml import plain, read_toml, scene_file
+
+if TYPE_CHECKING:
+    import os
+
+    from ..integrators import Integrator
 
 
 def _energy_errors(H):
@@ -60,8 +67,8 @@ FIGURES = {
 class Built(NamedTuple):
     """What resolving a scene builds: the system (effects applied), the method, the initial states (n, 3)."""
 
-    system: object
-    method: object
+    system: MetriplecticSystem
+    method: Integrator
     states: np.ndarray
 
 
@@ -137,7 +144,7 @@ class Scene:
     name: str = "scene"
     source: str = "<Scene>"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         check = _Checker(self.source)
         set_ = lambda name, value: object.__setattr__(self, name, value)  # noqa: E731 (frozen dataclass)
         if self.expressions is None:
@@ -179,13 +186,13 @@ class Scene:
 
     # -- construction ----------------------------------------------------------------------
     @classmethod
-    def from_toml(cls, path):
+    def from_toml(cls, path: str | os.PathLike[str]) -> Scene:
         """Read a scene file; a malformed or invalid file raises ``SceneError`` naming it."""
         path = Path(path)
         return cls.from_dict(read_toml(path), source=str(path), name=path.stem)
 
     @classmethod
-    def from_dict(cls, data, source="<dict>", name="scene"):
+    def from_dict(cls, data: dict[str, Any], source: str = "<dict>", name: str = "scene") -> Scene:
         """A scene from the nested sections of the file form (what ``to_dict`` returns)."""
         if not isinstance(data, dict):
             raise SceneError(source, None, f"a scene must be a table of sections; got {type(data).__name__}.")
@@ -218,12 +225,12 @@ class Scene:
                 raise SceneError(source, _KEY_OF[required.name], "missing; it is required.")
         return cls(**fields, source=source, name=name)
 
-    def replace(self, **changes):
+    def replace(self, **changes: Any) -> Scene:
         """A copy with some fields changed (validated again)."""
         return dataclasses.replace(self, **changes)
 
     # -- resolution --------------------------------------------------------------------------
-    def build_system(self):
+    def build_system(self) -> MetriplecticSystem:
         """The system (catalogue or formulas) with this scene's parameters and effects."""
         return self._system(self.parameters)
 
@@ -245,7 +252,7 @@ class Scene:
             raise SceneError(self.source, "system.parameters", str(exc)) from None
         return system.with_effects(hamiltonian=self.hamiltonian)
 
-    def build_method(self):
+    def build_method(self) -> Integrator:
         """The integrator (wrapped in ``geomint.Projected`` when ``projection`` is on)."""
         return self._projected(self._base_method())
 
@@ -263,11 +270,11 @@ class Scene:
         except MethodDataError as exc:
             raise SceneError(self.source, exc.key, exc.problem) from None
 
-    def initial_states(self, system=None):
+    def initial_states(self, system: MetriplecticSystem | None = None) -> np.ndarray:
         """The initial states, ``(n, 3)``: the given points, or a sample of the level set (a resolved scene's
         sample, taken once)."""
-        if self._built is not None and system is None:
-            return self._built.states.copy()
+        if self._built is not None and system is None:  # pyright: ignore[reportAttributeAccessIssue]  # set in __post_init__
+            return self._built.states.copy()  # pyright: ignore[reportAttributeAccessIssue]
         return self._initial_states(self.build_system() if system is None else system, self.level_set)
 
     def _initial_states(self, system, level_set):
@@ -281,12 +288,12 @@ class Scene:
         except ValueError as exc:
             raise SceneError(self.source, "initial.level_set", str(exc)) from None
 
-    def resolved(self):
+    def resolved(self) -> Scene:
         """This scene with every default written out; builds the system and method, so it validates fully.
 
         Done once: the resolved scene keeps the system, method and initial states it built (``built``), and
         resolving it again returns it."""
-        if self._built is not None:
+        if self._built is not None:  # pyright: ignore[reportAttributeAccessIssue]  # set in __post_init__
             return self
         parameters = dict(self.parameters)
         if self.expressions is None:
@@ -313,11 +320,11 @@ class Scene:
         object.__setattr__(resolved, "_built", Built(system, method, states))
         return resolved
 
-    def built(self):
+    def built(self) -> Built:
         """``Built(system, method, states)`` of a resolved scene (``resolved`` builds them once)."""
-        if self._built is None:
+        if self._built is None:  # pyright: ignore[reportAttributeAccessIssue]  # set in __post_init__
             raise ValueError("only a resolved scene keeps what it built; call `scene.resolved()` first.")
-        return self._built
+        return self._built  # pyright: ignore[reportAttributeAccessIssue]
 
     def _check_size(self):
         """Step counts and the size of the output, computed before anything runs."""
@@ -325,7 +332,7 @@ class Scene:
         if not steps <= MAX_STEPS:
             raise SceneError(self.source, _KEY_OF["h"], f"duration / h = {steps:.3g} steps per trajectory; at most "
                                                         "2**52 are allowed: use a larger h or a shorter duration.")
-        rows = 2 if self.every == "final" else self.steps_per_trajectory // self.every + 2
+        rows = 2 if self.every == "final" else self.steps_per_trajectory // self.every + 2  # pyright: ignore[reportOperatorIssue]
         # per saved row: t, x, H, S in the solution, and each recorded observable (at most 3 values) stacked
         nbytes = rows * self.n_trajectories * 8 * (6 + 3 * len(self.record))
         problem = _validate.memory_problem(nbytes)
@@ -335,16 +342,16 @@ class Scene:
                                                             "`every`, or \"final\").")
 
     @property
-    def steps_per_trajectory(self):
+    def steps_per_trajectory(self) -> int:
         """Steps ``geomint.solve`` takes for each initial state."""
         return step_count(0.0, self.duration, self.h)
 
     @property
-    def n_trajectories(self):
+    def n_trajectories(self) -> int:
         """Number of initial states."""
-        return len(self.points) if self.points is not None else self.level_set["n"]
+        return len(self.points) if self.points is not None else self.level_set["n"]  # pyright: ignore[reportOptionalSubscript]
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """The file form: nested sections, ``Scene.from_dict(scene.to_dict()) == scene``."""
         out = {}
         for section, keys in _LAYOUT.items():
@@ -360,10 +367,10 @@ class Scene:
             out["system"].update(plain(self.expressions))
         return out
 
-    def __eq__(self, other):
+    def __eq__(self, other: object) -> bool:
         return isinstance(other, Scene) and self.to_dict() == other.to_dict()
 
 
-def load_scene(scene):
+def load_scene(scene: str) -> Scene:
     """A ``Scene`` from a file path or the name of a bundled scene (``bundled_scenes``)."""
-    return Scene.from_toml(scene_file(scene))
+    return Scene.from_toml(scene_file(scene))  # pyright: ignore[reportArgumentType]  # bundled scenes are files

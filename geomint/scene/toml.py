@@ -2,16 +2,23 @@
 evaluated as Python), writing sections back as TOML, and finding a scene by path or by the name of a bundled
 one (``geomint/scenes/*.toml``, package data)."""
 
+from __future__ import annotations
+
 import json
 import tomllib
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .checks import SceneError, _listing
 
+if TYPE_CHECKING:
+    import os
+    from importlib.resources.abc import Traversable
 
-def read_toml(path):
+
+def read_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
     """The sections of the scene file ``path`` as a dict; an unreadable or malformed file raises ``SceneError``
     naming it."""
     path = Path(path)
@@ -31,7 +38,7 @@ def read_toml(path):
                                           "levels.") from None
 
 
-def to_toml(data):
+def to_toml(data: dict[str, Any]) -> str:
     """TOML text for a scene's ``to_dict()`` (top-level keys, then one table per section)."""
     top = [f"{key} = {toml_value(value)}" for key, value in data.items() if not isinstance(value, dict)]
     tables = [f"\n[{key}]\n" + "\n".join(f"{k} = {toml_value(v)}" for k, v in value.items())
@@ -39,7 +46,7 @@ def to_toml(data):
     return "\n".join(top) + "\n" + "\n".join(tables)
 
 
-def toml_value(value):
+def toml_value(value: Any) -> str:
     """One value (a plain one: ``plain``) as TOML text."""
     if isinstance(value, bool):
         return "true" if value else "false"
@@ -52,7 +59,7 @@ def toml_value(value):
     return "[" + ", ".join(toml_value(v) for v in value) + "]"
 
 
-def plain(value):
+def plain(value: Any) -> Any:
     """A value TOML and JSON can hold: tuples and arrays become lists."""
     if isinstance(value, dict):
         return {k: plain(v) for k, v in value.items()}
@@ -63,7 +70,7 @@ def plain(value):
     return value
 
 
-def bundled_scenes():
+def bundled_scenes() -> dict[str, Traversable]:
     """Names of the scenes shipped with geomint -> their paths."""
     from importlib import resources
 
@@ -71,7 +78,7 @@ def bundled_scenes():
     return {p.name[:-5]: p for p in sorted(folder.iterdir(), key=lambda p: p.name) if p.name.endswith(".toml")}
 
 
-def scene_file(scene):
+def scene_file(scene: str) -> Path | Traversable:
     """The file of ``scene``: a file path, or the name of a bundled scene (with or without ``.toml``)."""
     path = Path(scene)
     if path.is_file():

@@ -37,7 +37,7 @@ def _J(x, p):
 _SHIFTS = {1: 0.0, 2: 1.0}
 
 
-def degenerate_example(number=1, eps=1.0):
+def degenerate_example(number: int = 1, eps: float = 1.0) -> MetriplecticSystem:
     """The paper's Examples 1 and 2: ``J = (0, 0, y)``, so ``P = 0`` on the plane y = 0.
 
     Example 1: ``H = (x^2 + y^2 + z^2) / 2``; Example 2: ``H = (x^2 + (y-1)^2 + z^2) / 2``;

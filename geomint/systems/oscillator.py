@@ -1,10 +1,17 @@
 """The dissipative oscillator (paper section 2.2)."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 from numba import njit
 
 from .._cache import CACHE
 from .._validate import reals
 from ..model.system import MetriplecticSystem
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
 
 @njit(cache=CACHE)
@@ -41,7 +48,8 @@ def _J(x, p):
     return (0.0, 0.0, 1.0)
 
 
-def dissipative_oscillator(coefficients=(0.0, 0.0, 1.0), eps=1.0):
+def dissipative_oscillator(coefficients: npt.ArrayLike = (0.0, 0.0, 1.0), eps: float = 1.0,
+                           ) -> MetriplecticSystem:
     """The harmonic oscillator in (x, y), lifted to R^3 and perturbed (paper section 2.2).
 
         H = |x|^2 / 2,   J = (0, 0, 1),   S = S(z) = sum_k coefficients[k] z^k,

@@ -1,11 +1,18 @@
 """Closed-form reference solutions, for tests and experiments."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
 from .._kernels import exact_flows as _exact
 
 
-def rigid_body_exact(a, b, c, m0, t):
+def rigid_body_exact(a: float, b: float, c: float, m0: npt.ArrayLike, t: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """The free rigid body ``m' = grad H x m``, ``H = (a x^2 + b y^2 + c z^2) / 2``, at the times ``t``.
 
     Jacobi elliptic functions (sn, cn, dn by the AGM, the phase by Carlson's
@@ -47,5 +54,5 @@ def rigid_body_exact(a, b, c, m0, t):
         raise ValueError(f"`t` must be a finite number or 1-D array of them; got shape {times.shape}.")
     flat = np.ascontiguousarray(np.atleast_1d(times))
     out = np.empty((flat.size, 3))
-    _exact.rigid_body_flow_at(*coefficients, (m0[0], m0[1], m0[2]), flat, out)
+    _exact.rigid_body_flow_at(*coefficients, (m0[0], m0[1], m0[2]), flat, out)  # pyright: ignore[reportCallIssue]
     return out[0] if times.ndim == 0 else out

@@ -39,7 +39,7 @@ def _check_coefficient(name, value):
     return value
 
 
-def relaxing_rigid_body(a=0.5, b=1.0, c=1.5, eps=1.0):
+def relaxing_rigid_body(a: float = 0.5, b: float = 1.0, c: float = 1.5, eps: float = 1.0) -> MetriplecticSystem:
     """Morrison's relaxing rigid body (paper section 2.1).
 
         H = (a x^2 + b y^2 + c z^2) / 2,   S = |m|^2 / 2,   J = m,
@@ -82,7 +82,8 @@ def _quartic_grad_S(m, p):
     return (f * m[0], f * m[1], f * m[2])
 
 
-def quartic_rigid_body(a=0.5, b=1.0, c=1.5, k=0.5, eps=1.0):
+def quartic_rigid_body(a: float = 0.5, b: float = 1.0, c: float = 1.5, k: float = 0.5, eps: float = 1.0,
+                       ) -> MetriplecticSystem:
     """A rigid body with quartic anisotropy and a quartic Casimir: neither H nor S is quadratic.
 
         H = (a x^2 + b y^2 + c z^2) / 2 + k (x^4 + y^4 + z^4) / 4,
