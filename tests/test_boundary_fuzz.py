@@ -108,3 +108,20 @@ def test_integrator_constructors_end_in_an_integrator_or_an_error_naming_the_arg
     _outcome(lambda: geomint.Composition(base=base, scheme=scheme))
     _outcome(lambda: geomint.Projected(base))
     _outcome(lambda: geomint.Strang(base, option))
+
+
+def test_a_bool_beside_numbers_is_no_coordinate():
+    """Found by the fuzz test above: ``[True, 0, 0]`` became the state (1, 0, 0)."""
+    for x0 in ([True, 0, 0], [0.1, np.True_, 0.2]):
+        error = _outcome_error(lambda: geomint.solve(BODY, x0, (0.0, 0.1), 0.05))
+        assert isinstance(error, TypeError) and "`x0`" in str(error)
+        error = _outcome_error(lambda: geomint.solve_ensemble(BODY, [x0, [1.0, 0.0, 0.0]], (0.0, 0.1), 0.05))
+        assert isinstance(error, TypeError) and "`X0`" in str(error) or "`x0`" in str(error)
+
+
+def _outcome_error(call):
+    try:
+        call()
+    except (TypeError, ValueError) as error:
+        return error
+    return None

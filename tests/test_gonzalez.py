@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 
 import geomint
@@ -24,14 +24,21 @@ def test_steps_on_the_time_scale_always_succeed(system, x, h):
 
 
 @given(system=gt.catalogue_systems(), x=gt.states(), h=gt.step_sizes(1e-3, 0.5))
+@example(system=geomint.systems.quartic_rigid_body(0.19960137114540488, 0.1, 2.00001, 1.6545766467710967,
+                                                   eps=0.12051735129147259),
+         x=np.array([0.0, 1.5, 0.483098552047482]), h=0.0010000000000000002)
 def test_discrete_dissipation_identity(system, x, h):
-    """S(x') - S(x) = -h eps |dgH x dgS|^2 to round-off."""
+    """S(x') - S(x) = -h eps |dgH x dgS|^2 + dgS . r to round-off, r = x' - x - h F(x, x') the residual the
+    Newton solve stopped at (within sqrt(eps) of the state where it stalls, docs/theory.md: S still does not
+    rise and H is still kept, but the identity moves by dgS . r; found by hypothesis at 89 ulp, residual 1e-11)."""
     x_new = gt.one_step(system, geomint.Gonzalez(), x, h, allow_failure=True)
-    dg_h, dg_s, _ = geomint.Gonzalez().discrete_gradients(system, x, x_new)
+    dg_h, dg_s, axial = geomint.Gonzalez().discrete_gradients(system, x, x_new)
+    residual = (x_new - x) - h * (np.cross(dg_h, axial) + system.eps * np.cross(dg_h, np.cross(dg_h, dg_s)))
+    assert np.max(np.abs(residual)) <= np.sqrt(EPS) * max(np.max(np.abs(x_new)), np.max(np.abs(x_new - x)))
     predicted = -h * system.eps * np.sum(np.cross(dg_h, dg_s) ** 2)
     change = system.S(x_new) - system.S(x)
     scale = gt.term_scale(system.S(x), system.S(x_new), system.grad_S(x), x) + abs(predicted)
-    assert abs(change - predicted) <= 64 * EPS * scale
+    assert abs(change - predicted - dg_s @ residual) <= 64 * EPS * scale
 
 
 @given(system=gt.catalogue_systems(), x=gt.states(), x_new=gt.states())

@@ -30,8 +30,9 @@ def check_states(value, name, one=True):
         states = np.array(value, dtype=np.float64)
     except (TypeError, ValueError, OverflowError):
         raise TypeError(f"`{name}` must be {kind}; got {value!r}.") from None
-    if np.asarray(value).dtype.kind not in "iuf":
-        raise TypeError(f"`{name}` must be {kind}; got {value!r}.")
+    if np.asarray(value).dtype.kind not in "iuf" or any(
+            isinstance(v, (bool, np.bool_)) for v in np.asarray(value, dtype=object).ravel()):
+        raise TypeError(f"`{name}` must be {kind}; got {value!r}.")  # True is no coordinate, even beside numbers
     if states.ndim != (1 if one else 2) or states.shape[-1] != DIMENSION or states.size == 0:
         raise ValueError(f"`{name}` must have shape {shape}{'' if one else ' with n >= 1'}; got shape {states.shape}: "
                          f"states of length {DIMENSION}, as geomint integrates systems in R^{DIMENSION} (got length "
