@@ -144,7 +144,7 @@ def report(steps, iterations, single, solves, n, repeats):
     return "\n".join(lines) + "\n"
 
 
-#: the ratios the engine is held to (issue 10): (label, numerator, denominator, at most)
+#: the ratios the engine is held to: (label, numerator, denominator, at most)
 TARGETS = (("geomint RK4 / first-class floor", "geomint RK4", "RK4 by hand, first-class functions + flush", 1.3),
            ("geomint Gonzalez / geomint RK4", "geomint Gonzalez", "geomint RK4", 2.0),
            ("geomint Yoshida4(Gonzalez) / geomint Gonzalez", "geomint Yoshida4(Gonzalez)", "geomint Gonzalez", 3.5),

@@ -18,6 +18,9 @@ given the user functions as numba dispatchers instead, so that LLVM inlines
 them as the floor's field is inlined.  That needs a compilation per system
 (numba cannot cache it), which is why the library does not do it; what
 remains between that row and the floor is the Gonzalez step's own work.
+
+Those two rows reach a private kernel (``geomint._kernels.loop``) on purpose: they time the engine
+itself; every other row uses the public API.
 """
 
 import argparse

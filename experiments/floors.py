@@ -11,6 +11,9 @@
 
 Both run ``n`` steps from ``x0`` and return the final state; they take the
 parameters as arguments and compile once (``cache=True``).
+
+The floors share one private helper of the engine (``geomint._kernels.vec3.flush_tiny``), so that a floor
+rounds tiny values as the engine does: the comparison is of the same arithmetic.
 """
 
 import numpy as np
