@@ -236,7 +236,7 @@ class Scene:
 
     def _system(self, parameters):
         if self.expressions is not None:
-            from ..model import expressions as _expressions  # sympy (~0.5 s to import) only for systems as formulas
+            from ..model import expressions as _expressions  # sympy, slow to import, only for systems as formulas
 
             try:
                 kwargs = _expressions.build(**self.expressions, params=parameters, eps=self.eps,
