@@ -17,6 +17,8 @@ internal error, 130 interrupted by Ctrl-C (the trajectories done are written,
 marked "partial" in the summary).
 """
 
+from __future__ import annotations
+
 import argparse
 import json
 import math
@@ -26,6 +28,7 @@ import tempfile
 import threading
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING, TextIO, cast
 
 import numpy as np
 
@@ -41,6 +44,13 @@ from .scene import (
 )
 from .scene.toml import to_toml, toml_value
 from .systems import CATALOGUE, relaxing_rigid_body
+
+if TYPE_CHECKING:
+    import os
+    from collections.abc import Sequence
+
+    from .integrators import Integrator
+    from .scene import Scene
 
 #: the command line's exit codes (a run's outcome is a ``geomint.Status``)
 OK, FAILED, BAD_INPUT, INTERNAL, INTERRUPTED = 0, 1, 2, 3, 130
@@ -66,8 +76,9 @@ class OutputError(Exception):
 
 
 def _parser():
+    # (this module's docstring: None only under python -OO, which strips docstrings)
     parser = argparse.ArgumentParser(
-        prog="geomint", description=__doc__.split("\n\n")[1], epilog=__doc__.split("\n\n")[-1],
+        prog="geomint", description=cast(str, __doc__).split("\n\n")[1], epilog=cast(str, __doc__).split("\n\n")[-1],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"geomint {__version__}")
@@ -97,7 +108,7 @@ def _parser():
     return parser
 
 
-def drift(steps, h, eps, out=None):
+def drift(steps: int, h: float, eps: float, out: TextIO | None = None) -> int:
     """Print max |H - H0|/|H0|, S rises and the final S for Gonzalez and RK4."""
     out = sys.stdout if out is None else out
     system = relaxing_rigid_body(0.5, 1.0, 1.5, eps=eps)
@@ -126,7 +137,8 @@ def drift(steps, h, eps, out=None):
     return FAILED if failed else OK
 
 
-def run(scene_name, out_dir=None, quiet=False, out=None, checkpoint_every=None, resume=False):
+def run(scene_name: str, out_dir: str | os.PathLike[str] | None = None, quiet: bool = False, out: TextIO | None = None,
+        checkpoint_every: int | None = None, resume: bool = False) -> int:
     """``geomint run``: run a scene, write ``<name>.npz``, ``<name>.summary.json`` and figures."""
     out = sys.stdout if out is None else out
     from tqdm import tqdm
@@ -239,8 +251,9 @@ class _CompilationNotice:
 
     def _tick(self):
         while not self._stop.wait(self._INTERVAL):
-            print(f"\rgeomint: compiling ... {time.perf_counter() - self.started:.0f} s", end="", file=self.stream,
-                  flush=True)
+            # (started is set by _compiling before it starts this ticker)
+            print(f"\rgeomint: compiling ... {time.perf_counter() - cast(float, self.started):.0f} s", end="",
+                  file=self.stream, flush=True)
 
     def __exit__(self, *exc):
         from numba.core import event
@@ -250,8 +263,9 @@ class _CompilationNotice:
         if self._ticker is not None:
             self._ticker.join()
             print("\r\033[K", end="", file=self.stream)
-        if self.announced and self.stream is not None:
-            print(f"geomint: compiled in {time.perf_counter() - self.started:.2f} s", file=self.stream, flush=True)
+        if self.announced and self.stream is not None:  # announced with a stream: started set by _compiling
+            print(f"geomint: compiled in {time.perf_counter() - cast(float, self.started):.2f} s", file=self.stream,
+                  flush=True)
         return False
 
 
@@ -281,7 +295,7 @@ def _report(result, summary, paths, out):
         print(f"wrote {path}", file=out)
 
 
-def describe(scene, method):
+def describe(scene: Scene, method: Integrator) -> str:
     """What a scene runs, as a sentence: the system and its parameters, the effects, the method and its options,
     the step and the span (the run's second line; ε is the dissipation parameter)."""
     def assigned(data):
@@ -301,7 +315,7 @@ def describe(scene, method):
             f"{scene.duration:g}.")
 
 
-def show(scene_name, out=None):
+def show(scene_name: str, out: TextIO | None = None) -> int:
     """``geomint show``: the scene fully resolved, as TOML."""
     out = sys.stdout if out is None else out
     scene = load_scene(scene_name).resolved()
@@ -314,15 +328,16 @@ def show(scene_name, out=None):
     return OK
 
 
-def list_all(out=None):
+def list_all(out: TextIO | None = None) -> int:
     """``geomint list``: what scenes can name."""
     out = sys.stdout if out is None else out
     print("systems ([system] name):", file=out)
+    # (the constructors and the integrators are documented: a __doc__ is None only under python -OO)
     for name, constructor in CATALOGUE.items():
-        print(f"  {name:<24}{constructor.__doc__.strip().splitlines()[0]}", file=out)
+        print(f"  {name:<24}{cast(str, constructor.__doc__).strip().splitlines()[0]}", file=out)
     print("integrators ([integrator] method; order and traits with the default options):", file=out)
     for name, cls in short_names().items():
-        print(f"  {name:<24}{_traits(cls())}; {cls.__doc__.strip().splitlines()[0]}", file=out)
+        print(f"  {name:<24}{_traits(cls())}; {cast(str, cls.__doc__).strip().splitlines()[0]}", file=out)
         defaults = method_to_data(cls())
         options = ", ".join(f"{k} = {toml_value(defaults[k]) if k in defaults else '(unset)'}" for k in options_of(cls))
         print(f"  {'':<24}options: {options or 'none'}", file=out)
@@ -348,7 +363,7 @@ def _traits(method):
     return ", ".join([order, *traits])
 
 
-def main(argv=None):
+def main(argv: Sequence[str] | None = None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
     if args.command is None:

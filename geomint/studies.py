@@ -55,7 +55,7 @@ def measured_order(system: MetriplecticSystem, method: Integrator | str, x0: npt
     reference = reference_solution(system, x0, t_end) if reference is None else np.asarray(reference)
     errors = []
     for h in step_sizes:
-        sol = solve(system, x0, (0.0, t_end), h, method=method, save_every=None)  # pyright: ignore[reportArgumentType]  # solve takes save_every=None
+        sol = solve(system, x0, (0.0, t_end), h, method=method, save_every=None)
         if not sol.success:
             raise RuntimeError(f"h = {h:g}: {sol.message}")
         errors.append(float(np.max(np.abs(sol.x_final - reference)) / np.max(np.abs(reference))))
@@ -118,10 +118,10 @@ def work_precision(system: MetriplecticSystem, x0: npt.ArrayLike, t_end: float, 
     def run(setting):
         if tolerances is not None:
             return solve(system, x0, (0.0, t_end), rtol=setting, atol=setting, method=method,
-                         save_every=1 if along else None)  # pyright: ignore[reportArgumentType]  # solve takes save_every=None
+                         save_every=1 if along else None)
         n = round(t_end / setting)
         return solve(system, x0, (0.0, t_end), setting, method=method,
-                     save_every=max(1, n // samples) if along else None)  # pyright: ignore[reportArgumentType]  # solve takes save_every=None
+                     save_every=max(1, n // samples) if along else None)
 
     def error(sol):
         return (error_along(sol, reference) if along  # pyright: ignore[reportArgumentType]  # along: callable

@@ -36,6 +36,9 @@ def resolve(method: Integrator | str) -> Integrator:
 __all__ = [
     "AVF", "BogackiShampine32", "Composition", "DampedGonzalez", "DiscreteGradient", "DormandPrince54", "DormandPrince853", "EmbeddedRungeKutta", "Gonzalez", "INTEGRATORS", "Integrator", "ItohAbe",
     "KahanLi6", "KahanLi8", "Lie", "OscillatorRotation", "Projected", "RK4", "RigidBodyFlow", "RotorSplitting",
-    "SCHEMES", "S_rise_statistics", "Strang", "Suzuki4", "SuzukiUmeno8", "SymmetrizedItohAbe", "Traits", "Yoshida4",
+    # S_rise_statistics (now geomint.studies') is set on this module by geomint/__init__.py, which keeps the earlier
+    # public name reachable here without integrators/ importing studies (a circle): pyright cannot see it
+    "SCHEMES", "S_rise_statistics",  # pyright: ignore[reportUnsupportedDunderAll]
+    "Strang", "Suzuki4", "SuzukiUmeno8", "SymmetrizedItohAbe", "Traits", "Yoshida4",
     "Yoshida6", "resolve",
 ]

@@ -8,11 +8,17 @@ splits and projects.  A method that is not itself a program is a one-stage
 program on the full field.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .._kernels import layout
+
+if TYPE_CHECKING:
+    from .base import Integrator
 
 FLOWS = {"full": layout.FULL, "hamiltonian": layout.HAMILTONIAN, "gradient": layout.GRADIENT}
 
@@ -30,10 +36,10 @@ class Program:
     projection: int = layout.NO_PROJECTION
     max_iter: int = 50
 
-    def energy_exact(self):
+    def energy_exact(self) -> bool:
         return all(method.energy_exact for method, _, _ in self.stages)
 
-    def lower(self, system):
+    def lower(self, system: Any) -> layout.ComposedStep:  # system: a MetriplecticSystem (integrators import no model)
         """A ``layout.ComposedStep`` (layout in ``_kernels/composition.py``)."""
         from .discrete_gradient import Gonzalez
 
@@ -67,23 +73,28 @@ def _markers(leaves, damped):
 class Programmed:
     """Mixin for methods built on sub-integrators and lowered through ``program()``."""
 
-    def sub_methods(self):
+    if TYPE_CHECKING:  # for pyright only: each method using the mixin defines it (``program_of`` asks hasattr)
+        def program(self) -> Program: ...
+
+    def sub_methods(self) -> tuple[Integrator, ...]:
         raise NotImplementedError
 
-    def check_system(self, system):
+    def check_system(self, system: Any) -> None:
         for method in self.sub_methods():
             method.check_system(system)
 
-    def lower(self, system):
+    def lower(self, system: Any) -> layout.ComposedStep:
         return self.program().lower(system)
 
 
-def program_of(method):
+def program_of(method: Integrator) -> Program:
     """The program of ``method``: its own, or one stage of it on the full field."""
-    return method.program() if hasattr(method, "program") else Program(((method, "full", 1.0),))
+    # (pyright does not narrow an Integrator by hasattr: the methods with a program are the Programmed ones)
+    return (method.program()  # pyright: ignore[reportAttributeAccessIssue]
+            if hasattr(method, "program") else Program(((method, "full", 1.0),)))
 
 
-def check_flow(argument, method, flow):
+def check_flow(argument: str, method: Integrator, flow: str) -> None:
     """Raise ``ValueError`` if ``method`` cannot integrate the sub-flow ``flow``."""
     if flow not in method.flows:
         raise ValueError(f"`{argument}` must integrate the {flow} flow; {method!r} integrates only the {method.flows[0]} flow.")

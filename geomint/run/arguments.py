@@ -5,12 +5,21 @@ Each raises ``TypeError``/``ValueError`` with one grammar: "`x0` must ...; got .
 of a state is taken from the data; geomint integrates systems in R^3, so it must be 3.
 """
 
+from __future__ import annotations
+
 import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .. import _validate
 from .._kernels import layout as _layout
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from ..integrators import Integrator
+    from ..model.system import MetriplecticSystem
 
 #: the dimension of the states geomint integrates (R^n will take it from the system)
 DIMENSION = 3
@@ -19,7 +28,7 @@ DIMENSION = 3
 MAX_STEPS = 1 << 52
 
 
-def check_states(value, name, one=True):
+def check_states(value: object, name: str, one: bool = True) -> npt.NDArray[np.float64]:
     """``value`` as float64 states: one state, shape ``(n,)`` (``one``), or starts, shape ``(m, n)`` with
     ``m >= 1``.  ``n`` is read from the data and must be ``DIMENSION``."""
     shape = f"({DIMENSION},)" if one else f"(n, {DIMENSION})"
@@ -40,7 +49,8 @@ def check_states(value, name, one=True):
     return states
 
 
-def check_state(x0, system=None, name="x0"):
+def check_state(x0: npt.ArrayLike, system: MetriplecticSystem | None = None,
+                name: str = "x0") -> npt.NDArray[np.float64]:
     """One finite state (``check_states``), with H and S finite there when ``system`` is given."""
     x = check_states(x0, name)
     if not np.all(np.isfinite(x)):
@@ -52,7 +62,7 @@ def check_state(x0, system=None, name="x0"):
     return x
 
 
-def check_span(t_span):
+def check_span(t_span: Any) -> tuple[float, float]:  # refused by name unless a pair of reals
     if isinstance(t_span, (str, bytes)) or np.ndim(t_span) != 1 or len(t_span) != 2:
         raise ValueError(f"`t_span` must be a pair (t0, t_end) of real numbers; got {t_span!r}.")
     t0, t_end = (_validate.real("t_span", t) for t in t_span)
@@ -63,7 +73,7 @@ def check_span(t_span):
     return t0, t_end
 
 
-def check_step(h, t0, t_end):
+def check_step(h: float, t0: float, t_end: float) -> float:
     h = _validate.real("h", h)
     if not (math.isfinite(h) and h > 0.0):
         raise ValueError(f"`h` must be finite and > 0; got {h!r}.")
@@ -77,7 +87,7 @@ def check_step(h, t0, t_end):
     return h
 
 
-def check_save_every(save_every, n_steps):
+def check_save_every(save_every: int | None, n_steps: int) -> int:
     if save_every is None:
         return n_steps
     if isinstance(save_every, (bool, np.bool_)) or not isinstance(save_every, (int, np.integer)) or save_every < 1:
@@ -85,14 +95,14 @@ def check_save_every(save_every, n_steps):
     return int(min(save_every, n_steps))
 
 
-def check_memory(rows):
+def check_memory(rows: int) -> None:
     """Refuse up front a run whose saved states would not fit in memory."""
     problem = _validate.memory_problem(rows * 6 * 8)
     if problem:
         raise ValueError(f"saving {rows} states {problem}; use a larger `save_every` (or None).")
 
 
-def check_t_eval(t_eval, t0, t_end):
+def check_t_eval(t_eval: npt.ArrayLike, t0: float, t_end: float) -> npt.NDArray[np.float64]:
     values = _validate.reals("t_eval", t_eval)
     if values.size == 0:
         raise ValueError("`t_eval` must hold at least one time; got an empty sequence.")
@@ -109,7 +119,7 @@ def check_t_eval(t_eval, t0, t_end):
     return values
 
 
-def with_args(system, args):
+def with_args(system: MetriplecticSystem, args: npt.ArrayLike) -> MetriplecticSystem:
     values = _validate.reals("args", args)
     if values.shape != system.params.shape:
         raise ValueError(f"`args` must have {system.params.size} values, as the system's params; got {values.size}: "
@@ -117,7 +127,7 @@ def with_args(system, args):
     return system.with_effects(params=values)
 
 
-def reversible(step_data):
+def reversible(step_data: tuple) -> bool:
     """Backward steps are the same formulas with ``h < 0``: RK4, the pairs, the discrete-gradient family.
     Projections and the compositions' S safeguard assume S falls along the step."""
     if isinstance(step_data, _layout.EmbeddedPairStep):
@@ -125,7 +135,8 @@ def reversible(step_data):
     return isinstance(step_data, (_layout.RungeKutta4, _layout.DiscreteGradientStep))
 
 
-def check_direction(integrator, step_data, t_span, t0, t_end):
+def check_direction(integrator: Integrator, step_data: tuple, t_span: Any, t0: float,
+                    t_end: float) -> None:
     """Refuse a backward ``t_span`` for a method that cannot step backward (``reversible``)."""
     if t_end < t0 and not reversible(step_data):
         raise ValueError(f"`t_span` = {t_span!r} runs backward, which {integrator!r} cannot: its S safeguard or "

@@ -1,14 +1,24 @@
 """Checkpoints of a fixed-step run: written atomically, resumed only by the same run, bit for bit."""
 
+from __future__ import annotations
+
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .._files import atomic
 from .._kernels import layout as _layout
 
-def check_checkpoint(checkpoint):
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from .._kernels.loop import Output
+    from ..integrators import Integrator
+    from ..model.system import MetriplecticSystem
+
+def check_checkpoint(checkpoint: Any) -> tuple[Path, int] | None:  # refused by name unless (path, steps)
     if checkpoint is None:
         return None
     if not (isinstance(checkpoint, (tuple, list)) and len(checkpoint) == 2):
@@ -21,7 +31,8 @@ def check_checkpoint(checkpoint):
     return Path(path), int(steps)
 
 
-def run_id(system, x0, t0, t_end, h, save_every, integrator):
+def run_id(system: MetriplecticSystem, x0: npt.NDArray[np.float64], t0: float, t_end: float, h: float,
+           save_every: int, integrator: Integrator) -> str:
     """What a checkpoint must match to be resumed: every argument that shapes the run, floats in hex."""
     numbers = [*x0.tolist(), t0, t_end, h, system.eps, *system.params.tolist()]
     return (f"{system!r} hamiltonian={system.hamiltonian} {integrator!r} save_every={save_every} "
@@ -31,7 +42,8 @@ def run_id(system, x0, t0, t_end, h, save_every, integrator):
 CHECKPOINT_ARRAYS = ("state", "work", "counters", "residual")
 
 
-def write_checkpoint(path, run_id, k_begin, state, work, out):
+def write_checkpoint(path: str | os.PathLike[str], run_id: str, k_begin: int, state: npt.NDArray[np.float64],
+                     work: npt.NDArray[np.float64], out: Output) -> None:
     rows = int(out.counters[_layout.ROWS])
     with atomic(path) as temporary:
         np.savez(temporary, run_id=np.array(run_id), k_begin=np.array(k_begin), state=state, work=work,
@@ -39,7 +51,8 @@ def write_checkpoint(path, run_id, k_begin, state, work, out):
                  S=out.S[:rows])
 
 
-def resume_checkpoint(path, run_id, state, work, out):
+def resume_checkpoint(path: str | os.PathLike[str], run_id: str, state: npt.NDArray[np.float64],
+                      work: npt.NDArray[np.float64], out: Output) -> int:
     """Load a checkpoint into the run's arrays; returns the step to continue from."""
     try:
         with np.load(path, allow_pickle=False) as data:

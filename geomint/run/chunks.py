@@ -4,15 +4,25 @@
 runs and the landing steps of ``events``); ``next_chunk`` sizes the next chunk to about ``CHUNK_SECONDS``.
 """
 
+from __future__ import annotations
+
 import contextlib
 import signal
 import threading
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .._kernels import layout as _layout
 from .._kernels import loop as _loop
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator
+
+    import numpy.typing as npt
+
+    from ..model.system import MetriplecticSystem
 
 #: the compiled loop runs in chunks of about CHUNK_SECONDS (between them ``solve`` reports progress and
 #: answers Ctrl-C), from FIRST_CHUNK steps up to at most MAX_CHUNK
@@ -25,12 +35,12 @@ FIRST_CHUNK = 1000
 MAX_CHUNK = 10_000_000
 
 
-def new_output(rows):
+def new_output(rows: int) -> _loop.Output:
     return _loop.Output(np.empty(rows), np.empty((rows, 3)), np.empty(rows), np.empty(rows),
                           np.zeros(_layout.N_COUNTERS, dtype=np.int64), np.zeros(1))
 
 
-def next_chunk(chunk, seconds):
+def next_chunk(chunk: int, seconds: float) -> int:
     """Steps for the next call of the compiled loop: about ``CHUNK_SECONDS`` of work, so progress reports and
     Ctrl-C are answered within that time whatever a step costs."""
     if seconds <= 0.0:
@@ -39,7 +49,7 @@ def next_chunk(chunk, seconds):
 
 
 @contextlib.contextmanager
-def interrupts():
+def interrupts() -> Iterator[list[int]]:
     """Ctrl-C (SIGINT) sets a flag read between chunks instead of raising in the middle of the run.
 
     Only in the main thread and only where Python's own handler is installed (a caller that
@@ -57,7 +67,8 @@ def interrupts():
         signal.signal(signal.SIGINT, previous)
 
 
-def save_interrupted(system, state, t, out):
+def save_interrupted(system: MetriplecticSystem, state: npt.NDArray[np.float64], t: float,
+                     out: _loop.Output) -> None:
     """Stop at time ``t``: the state reached is saved as the last row and the run marked interrupted."""
     counters = out.counters
     row = int(counters[_layout.ROWS])
@@ -68,7 +79,8 @@ def save_interrupted(system, state, t, out):
     counters[_layout.STATUS] = _layout.INTERRUPTED
 
 
-def new_run_state(step_data, x0):
+def new_run_state(step_data: tuple, x0: npt.NDArray[np.float64]
+                  ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """``(work, state)`` of a run from ``x0``: the method's workspace, and the state with no compensation yet, the
     energy anchor to be taken at ``x0`` (NaN) and S unknown."""
     work = np.zeros(getattr(step_data, "slots", 1) * _layout.WORK)
@@ -76,7 +88,9 @@ def new_run_state(step_data, x0):
     return work, state
 
 
-def run_chunk(system, step_data, control, state, work, clock, stops, budget, out):
+def run_chunk(system: MetriplecticSystem, step_data: tuple, control: tuple, state: npt.NDArray[np.float64],
+              work: npt.NDArray[np.float64], clock: npt.NDArray[np.float64], stops: npt.NDArray[np.float64],
+              budget: int, out: _loop.Output) -> float:
     """At most ``budget`` attempted steps of the compiled loop (arrays updated in place); returns the seconds
     it took."""
     started = time.perf_counter()

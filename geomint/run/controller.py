@@ -5,7 +5,10 @@ The compiled controllers are ``geomint._kernels.control``'s; this module chooses
 tolerances (scaled where step doubling needs it, ``control.proportional_tolerance``), the stops, the grid.
 """
 
+from __future__ import annotations
+
 import math
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -14,17 +17,24 @@ from .._kernels import control as _control
 from .._kernels import layout as _layout
 from .arguments import check_save_every, check_step
 
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from ..integrators import Integrator
+
 #: scipy's default rtol; atol, when not given, is ``ATOL_PER_RTOL * rtol``: scipy's default 1e-6 at its
 #: default rtol, and a floor that moves with rtol, so that rtol alone sets the accuracy
 RTOL, ATOL_PER_RTOL = 1e-3, 1e-3
 
 
-def step_count(t0, t_end, h):
+def step_count(t0: float, t_end: float, h: float) -> int:
     """Number of fixed steps ``solve`` takes from ``t0`` to ``t_end`` (the last one shortened to land on it)."""
     return max(1, math.ceil(abs((t_end - t0) / h) * (1.0 - 4.0 * np.finfo(float).eps)))
 
 
-def check_step_or_control(integrator, h, rtol, atol, first_step, max_step, t0, t_end):
+def check_step_or_control(integrator: Integrator, h: float | None, rtol: float | None, atol: float | None,
+                          first_step: float | None, max_step: float | None, t0: float, t_end: float
+                          ) -> tuple[float, None] | tuple[None, _control.Control]:
     """``(h, None)``: a fixed step, validated (no controller setting may come with it); or ``(None, Control)``
     for adaptive steps (``h`` None).  Shared by ``solve`` and ``solve_ensemble``."""
     if h is None:
@@ -37,7 +47,8 @@ def check_step_or_control(integrator, h, rtol, atol, first_step, max_step, t0, t
     return check_step(h, t0, t_end), None
 
 
-def check_control(integrator, rtol, atol, first_step, max_step, t0, t_end):
+def check_control(integrator: Integrator, rtol: float | None, atol: float | None, first_step: float | None,
+                  max_step: float | None, t0: float, t_end: float) -> _control.Control:
     """The controller's settings, validated; the first step is chosen by ``control.first_step`` when not given."""
     rtol = RTOL if rtol is None else _validate.real("rtol", rtol)
     if not (math.isfinite(rtol) and rtol >= 100 * np.finfo(float).eps):
@@ -60,21 +71,23 @@ def check_control(integrator, rtol, atol, first_step, max_step, t0, t_end):
                              float(integrator.order), True)
 
 
-def landing_control(integrator, h, control, t0, t_end, t_eval, save_all):
+def landing_control(integrator: Integrator, h: float | None, control: _control.Control | None, t0: float,
+                    t_end: float, t_eval: npt.NDArray[np.float64] | None, save_all: bool
+                    ) -> tuple[npt.NDArray[np.float64], _control.Control]:
     """``(stops, Control)`` of a run by the loop (``control.Control``): it lands on the times of ``t_eval`` after ``t0``
     and on ``t_end``; fixed steps ``h`` from each stop on (``control`` None), or adaptive ones whose first
     step, when not given, is 0 here: chosen by ``control.first_step`` when the run starts."""
     stops = np.array([t for t in (t_eval if t_eval is not None else []) if t != t0] or [t_end], dtype=np.float64)
     if stops[-1] != t_end:
         stops = np.append(stops, t_end)
-    if control is None:
-        return stops, _control.Control(False, math.copysign(h, t_end - t0), 1.0, 1.0, math.inf, _layout.NO_ESTIMATE,
-                                         1.0, float(integrator.order), save_all)
+    if control is None:  # fixed steps: h was given (check_step_or_control)
+        return stops, _control.Control(False, math.copysign(cast(float, h), t_end - t0), 1.0, 1.0, math.inf,
+                                         _layout.NO_ESTIMATE, 1.0, float(integrator.order), save_all)
     first = 0.0 if control.h is None else math.copysign(control.h, t_end - t0)
     return stops, control._replace(h=first, save_all=save_all)
 
 
-def constant_grid(t0, t_end, h, save_every):
+def constant_grid(t0: float, t_end: float, h: float, save_every: int | None) -> tuple[_control.Constant, int]:
     """``(Constant, n_steps)``: fixed steps ``h`` (validated) on the grid ``t0 + k h``, the last one shortened to
     land on ``t_end``, every ``save_every``-th state saved (None: the first and the last)."""
     n_steps = step_count(t0, t_end, h)

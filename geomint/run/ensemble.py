@@ -21,9 +21,12 @@ mid-run has its chunks run again by Dask.
 ``sweep`` runs a grid of eps values and parameter sets over the same starts.
 """
 
+from __future__ import annotations
+
 import warnings
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any
 
 import numba
 import numpy as np
@@ -38,6 +41,15 @@ from .controller import RTOL, check_step_or_control, constant_grid, landing_cont
 from .solve import choose_method, raised_message, run_message, step_caveat, step_ratios, tolerance_caveat
 from .status import Status
 from ..model.system import MetriplecticSystem
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterable
+
+    import numpy.typing as npt
+    import xarray
+
+    from .._kernels import control as _control
+    from ..integrators import Integrator
 
 #: trajectories per call of the batch kernel (between calls: progress, Ctrl-C, Dask tasks)
 CHUNK = 256
@@ -97,24 +109,24 @@ class Ensemble:
     n_rejected: np.ndarray
     eps: np.ndarray
     params: np.ndarray
-    method: object
+    method: Integrator
     caveats: tuple = ()
     step_ratio: np.ndarray | None = None
 
-    def __len__(self):
+    def __len__(self) -> int:
         return len(self.status)
 
     @property
-    def success(self):
+    def success(self) -> npt.NDArray[np.bool_]:
         """True where the trajectory reached ``t_end``, shape (n,)."""
         return self.status == 0
 
     @property
-    def x_final(self):
+    def x_final(self) -> npt.NDArray[np.float64]:
         """The last state each trajectory reached, shape (n, 3) (its start if it was not run)."""
         return self.x[np.arange(len(self)), np.maximum(self.rows - 1, 0)]
 
-    def solution(self, i):
+    def solution(self, i: int) -> Solution:
         """Trajectory ``i`` as a ``geomint.Solution``."""
         n = int(self.rows[i])
         status = Status(int(self.status[i]))
@@ -125,7 +137,7 @@ class Ensemble:
                         n_rejected=int(self.n_rejected[i]), caveats=self.caveats[i] if self.caveats else (),
                         step_ratio=None if self.step_ratio is None else float(self.step_ratio[i]))
 
-    def to_xarray(self, param_names=None):
+    def to_xarray(self, param_names: Iterable[str] | None = None) -> xarray.Dataset:
         """An ``xarray.Dataset`` (optional dependency: ``pip install geomint[xarray]``).
 
         Dimensions ``trajectory``, ``time`` (the saved rows; ``t`` is a
@@ -147,9 +159,13 @@ class Ensemble:
                            "S": (("trajectory", "time"), self.S)}, coords=coords)
 
 
-def solve_ensemble(system, X0, t_span, h=None, method=None, *, rtol=None, atol=None, first_step=None,
-                   max_step=None, t_eval=None, params=None, eps=None, save_every=1, progress=None, backend="local",
-                   client=None, chunk=CHUNK, threads=None):
+def solve_ensemble(system: MetriplecticSystem, X0: npt.ArrayLike, t_span: tuple[float, float], h: float | None = None,
+                   method: Integrator | str | None = None, *, rtol: float | None = None, atol: float | None = None,
+                   first_step: float | None = None, max_step: float | None = None,
+                   t_eval: npt.ArrayLike | None = None, params: npt.ArrayLike | None = None,
+                   eps: npt.ArrayLike | None = None, save_every: int | None = 1,
+                   progress: Callable[[int], object] | None = None, backend: str = "local", client: Any = None,
+                   chunk: int = CHUNK, threads: int | None = None) -> Ensemble:
     """Integrate every start ``X0[i]`` in one compiled batch kernel over all cores.
 
     Parameters
@@ -207,7 +223,9 @@ def solve_ensemble(system, X0, t_span, h=None, method=None, *, rtol=None, atol=N
         if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < 1:
             raise ValueError(f"`{name}` must be an integer >= 1; got {value!r}.")
     threads_given = threads is not None
-    threads = numba.config.NUMBA_NUM_THREADS if threads is None else int(threads)
+    # numba.config's settings are set at import, from the environment: pyright sees no such attribute
+    threads = (numba.config.NUMBA_NUM_THREADS  # pyright: ignore[reportPrivateImportUsage, reportAttributeAccessIssue]
+               if threads is None else int(threads))
     X0 = check_states(X0, "X0", one=False)
     n = len(X0)
     params = _per_trajectory_params(system, params, n)
@@ -279,7 +297,9 @@ def _flagged(ensemble, caveats, **fields):
     return replace(ensemble, messages=messages, caveats=tuple((c,) if c else () for c in caveats), **fields)
 
 
-def sweep(system, X0, t_span, h=None, method=None, *, eps=None, params=None, **options):
+def sweep(system: MetriplecticSystem, X0: npt.ArrayLike, t_span: tuple[float, float], h: float | None = None,
+          method: Integrator | str | None = None, *, eps: npt.ArrayLike | None = None,
+          params: Iterable[npt.ArrayLike] | None = None, **options: Any) -> Ensemble:
     """Every start of ``X0`` for every combination of ``eps`` (a sequence) and ``params`` (a sequence of parameter
     vectors): one ``solve_ensemble`` over the grid, trajectories ordered eps-major, then params, then starts.
 
@@ -352,7 +372,7 @@ class _FixedPlan:
 
     t0: float
     t_end: float
-    grid: object
+    grid: _control.Constant
 
     @property
     def rows(self):
@@ -388,7 +408,7 @@ class _MarchPlan:
 
     t0: float
     stops: np.ndarray
-    control: object
+    control: _control.Control
     t_eval: np.ndarray | None
 
     #: attempts per trajectory per kernel call (between calls: Ctrl-C)

@@ -22,8 +22,11 @@ onto an equilibrium of H = H0) and ``crossing`` (a function of the state
 crosses a value).
 """
 
+from __future__ import annotations
+
 import math
 import numbers
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -33,8 +36,19 @@ from .._user_errors import UserFunctionError
 from ..results.dense import Hermite
 from .chunks import new_output, new_run_state, run_chunk
 
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterable
 
-def relaxed(system, tol, *, terminal=True):
+    import numpy.typing as npt
+
+    from .._kernels.loop import Output
+    from ..model.system import MetriplecticSystem
+
+    #: an event: ``g(t, x) -> float``, with optional ``terminal`` and ``direction`` attributes
+    Event = Callable[[float, npt.NDArray[np.float64]], float]
+
+
+def relaxed(system: MetriplecticSystem, tol: float, *, terminal: bool | int = True) -> Event:
     """The event ``|xi(x)|_2 - tol`` falling through zero: the state has relaxed to within ``tol`` (in field
     speed) of an equilibrium.  Terminal by default: ``solve(..., events=relaxed(system, 1e-10))`` stops there.
 
@@ -43,7 +57,7 @@ def relaxed(system, tol, *, terminal=True):
     """
     tol = _positive("tol", tol)
 
-    def event(t, x):
+    def event(t: float, x: npt.NDArray[np.float64]) -> float:
         return float(np.linalg.norm(system.xi(x))) - tol
 
     event.terminal = terminal
@@ -52,14 +66,15 @@ def relaxed(system, tol, *, terminal=True):
     return event
 
 
-def crossing(function, value=0.0, *, direction=0.0, terminal=False):
+def crossing(function: Callable[[npt.NDArray[np.float64]], float], value: float = 0.0, *, direction: float = 0.0,
+             terminal: bool | int = False) -> Event:
     """The event ``function(x) - value``: a function of the state (``system.S``, ``lambda x: x[2]`` ...)
     crossing ``value``; ``direction`` and ``terminal`` as above."""
     if not callable(function):
         raise TypeError(f"`function` must be callable as function(x); got {function!r}.")
     value = _real("value", value)
 
-    def event(t, x):
+    def event(t: float, x: npt.NDArray[np.float64]) -> float:
         return float(function(x)) - value
 
     event.terminal = terminal
@@ -87,7 +102,7 @@ class Events:
     ``events``: a callable or a sequence of callables (the ``events`` argument of ``solve``).
     """
 
-    def __init__(self, events):
+    def __init__(self, events: Event | Iterable[Event]) -> None:
         functions = [events] if callable(events) else events
         if isinstance(functions, (str, bytes)) or not hasattr(functions, "__iter__"):
             raise TypeError(f"`events` must be a callable g(t, x) or a sequence of them; got {events!r}.")
@@ -99,7 +114,8 @@ class Events:
             terminal = getattr(g, "terminal", False)
             if isinstance(terminal, (bool, np.bool_)):
                 limit = 1 if terminal else 0
-            elif isinstance(terminal, numbers.Integral) and terminal >= 1:
+            # (typeshed's numbers.Integral declares only < and <=; an Integral compares with an int at run time)
+            elif isinstance(terminal, numbers.Integral) and terminal >= 1:  # pyright: ignore[reportOperatorIssue]
                 limit = int(terminal)
             else:
                 raise ValueError(f"`events[{k}].terminal` must be True, False or an integer >= 1; got {terminal!r}.")
@@ -128,7 +144,8 @@ class Events:
                                  f"x = {np.asarray(x).tolist()}; it must return a finite real number.")
         return values
 
-    def scan(self, system, step_data, out, start, stop, anchor):
+    def scan(self, system: MetriplecticSystem, step_data: tuple, out: Output, start: int, stop: int,
+             anchor: float) -> tuple[int, float, npt.NDArray[np.float64]] | None:
         """Look for zeros over the steps ending at rows ``start + 1 .. stop - 1`` of the run's output ``out``
         (``loop.Output``) of ``step_data`` on ``system``, whose steps keep the energy ``anchor``.
 
@@ -196,11 +213,11 @@ class Events:
             return float(g(s, y))
 
         try:
-            return float(brentq(stepped, lo, hi, **tolerances))
+            return float(cast(float, brentq(stepped, lo, hi, **tolerances)))  # a float without full_output
         except (ValueError, ArithmeticError):
-            return float(brentq(lambda s: float(g(s, u(s))), lo, hi, **tolerances))
+            return float(cast(float, brentq(lambda s: float(g(s, u(s))), lo, hi, **tolerances)))
 
-    def arrays(self):
+    def arrays(self) -> tuple[list[npt.NDArray[np.float64]], list[npt.NDArray[np.float64]]]:
         """``(t_events, x_events)``: per event, an array of times and an ``(n, 3)`` array of states."""
         return ([np.array(ts, dtype=np.float64) for ts in self.t_events],
                 [np.array(xs, dtype=np.float64).reshape(-1, 3) for xs in self.x_events])
@@ -210,18 +227,20 @@ def _name(g):
     return getattr(g, "__name__", type(g).__name__)
 
 
-def fields(system, x):
+def fields(system: MetriplecticSystem, x: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """The field at each state of ``x``, shape (m, 3)."""
     return np.asarray(system.xi(x), dtype=np.float64).reshape(-1, 3)
 
 
-def step_interpolant(system, out, n):
+def step_interpolant(system: MetriplecticSystem, out: Output,
+                     n: int) -> Callable[[float], npt.NDArray[np.float64]]:
     """The cubic Hermite interpolant on the step from row ``n`` to row ``n + 1``."""
     x = out.x[n:n + 2]
     return Hermite(out.t[n:n + 2], x, fields(system, x)).step(0)
 
 
-def land(system, step_data, out, n, t, anchor):
+def land(system: MetriplecticSystem, step_data: tuple, out: Output, n: int, t: float,
+         anchor: float) -> npt.NDArray[np.float64] | None:
     """The state one step of the method from row ``n`` of ``out`` lands on at ``t``, the step keeping the energy
     ``anchor`` (None if that step fails): a fixed step landing on the stop ``t``, through the run's loop."""
     if t == out.t[n]:

@@ -1,8 +1,11 @@
 """``solve``: check the arguments, lower the method, drive the compiled loop, build the ``Solution``."""
 
+from __future__ import annotations
+
 import dataclasses
 import math
 import warnings
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -20,6 +23,15 @@ from .chunks import FIRST_CHUNK, interrupts, new_output, new_run_state, next_chu
 from .controller import RTOL, check_step_or_control, constant_grid, landing_control
 from .events import Events, fields
 from .status import Status
+
+if TYPE_CHECKING:
+    import os
+    from collections.abc import Callable, Iterable
+
+    import numpy.typing as npt
+
+    from ..integrators import Integrator
+    from .events import Event
 
 
 
@@ -49,9 +61,14 @@ STEP_RATIO_LIMIT = 1e3
 FIRST_ROWS = 1024
 
 
-def solve(system, x0, t_span, h=None, method=None, save_every=1, progress=None, checkpoint=None, resume=None, *,
-          rtol=None, atol=None, first_step=None, max_step=None, t_eval=None, events=None, dense_output=False,
-          args=None):
+def solve(system: MetriplecticSystem, x0: npt.ArrayLike, t_span: tuple[float, float], h: float | None = None,
+          method: Integrator | str | None = None, save_every: int | None = 1,
+          progress: Callable[[int], object] | None = None,
+          checkpoint: tuple[str | os.PathLike[str], int] | None = None, resume: str | os.PathLike[str] | None = None,
+          *, rtol: float | None = None, atol: float | None = None, first_step: float | None = None,
+          max_step: float | None = None, t_eval: npt.ArrayLike | None = None,
+          events: Event | Iterable[Event] | None = None, dense_output: bool = False,
+          args: npt.ArrayLike | None = None) -> Solution:
     """Integrate ``dx/dt = xi_P + eps xi_g`` with a fixed step ``h``, or with adaptive steps (``h=None``).
 
     Parameters
@@ -174,7 +191,7 @@ def solve(system, x0, t_span, h=None, method=None, save_every=1, progress=None, 
     check_direction(integrator, step_data, t_span, t0, t_end)
     if not isinstance(dense_output, (bool, np.bool_)):
         raise TypeError(f"`dense_output` must be True or False; got {dense_output!r}.")
-    events = None if events is None else Events(events)
+    events = None if events is None else Events(events)  # pyright: ignore[reportAssignmentType]  # validated
     t_eval = None if t_eval is None else check_t_eval(t_eval, t0, t_end)
     h, control = check_step_or_control(integrator, h, rtol, atol, first_step, max_step, t0, t_end)
     if h is None or t_eval is not None or events is not None or dense_output:
@@ -201,7 +218,7 @@ def _flagged(sol, caveats, **fields):
     return dataclasses.replace(sol, message=message, caveats=tuple(caveats), **fields)
 
 
-def choose_method(method, h, rtol, t_span):
+def choose_method(method: Integrator | str | None, h: float | None, rtol: float | None, t_span: Any) -> Integrator:
     """The integrator of a run: ``method`` resolved or, when it is None, ``Gonzalez()`` for fixed steps,
     backward spans and adaptive steps at ``rtol >= LOOSE_RTOL`` (scipy's default), and
     ``Projected(DormandPrince853())`` for adaptive steps at a tighter ``rtol``: the method measured to meet
@@ -215,7 +232,7 @@ def choose_method(method, h, rtol, t_span):
     return Projected(DormandPrince853()) if tight else Gonzalez()
 
 
-def follows_tolerance(integrator):
+def follows_tolerance(integrator: Integrator) -> bool:
     """Whether the error along an adaptive run of ``integrator`` follows ``rtol`` (``adaptive`` module
     docstring): an embedded pair's estimate, an exact flow, or step doubling of order ``p >= 4`` (run at a
     tolerance-proportional ``rtol^((p+1)/p)``, ``control.proportional_tolerance``).  Any other estimate
@@ -226,7 +243,7 @@ def follows_tolerance(integrator):
         estimator == _layout.DOUBLING and order >= 4)
 
 
-def tolerance_caveat(integrator, rtol, backward=False):
+def tolerance_caveat(integrator: Integrator, rtol: float, backward: bool = False) -> str | None:
     """Why an adaptive run of ``integrator`` is not expected to meet ``rtol`` (the error along the trajectory
     within 100 rtol), or None: a method that controls its error per step, below ``PER_STEP_RTOL_FLOOR``."""
     if rtol >= PER_STEP_RTOL_FLOOR or follows_tolerance(integrator):
@@ -247,7 +264,8 @@ def _damped(integrator):
     return bool(getattr(integrator, "damped", False)) or any(_damped(m) for m in stages)
 
 
-def local_rate(system, X, conservative=False):
+def local_rate(system: MetriplecticSystem, X: npt.ArrayLike,
+               conservative: bool = False) -> npt.NDArray[np.float64]:
     """The field's local rate at each state of ``X`` (shape (n, 3)): the 2-norm of its Jacobian by central
     differences (6 field evaluations a state, at relative offsets eps^(1/3)); of the conservative part
     ``xi_P`` alone when ``conservative``.  NaN where a user function raises or a value is not finite."""
@@ -272,7 +290,8 @@ def local_rate(system, X, conservative=False):
     return rate
 
 
-def step_ratios(system, integrator, h, starts, ends):
+def step_ratios(system: MetriplecticSystem, integrator: Integrator, h: float, starts: npt.NDArray[np.float64],
+                ends: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """``(ratio, rate)`` per trajectory: ``|h|`` times the larger local rate (``local_rate``; the
     conservative part's for damped methods) at its start and its last state (NaN where neither is known)."""
     rates = local_rate(system, np.concatenate([starts, ends]), _damped(integrator)).reshape(2, -1)  # one call
@@ -282,7 +301,7 @@ def step_ratios(system, integrator, h, starts, ends):
     return abs(h) * rate, rate
 
 
-def step_caveat(integrator, h, ratio, rate):
+def step_caveat(integrator: Integrator, h: float, ratio: float, rate: float) -> str | None:
     """The sentence flagging a fixed step ``h`` far beyond the dynamics (``ratio > STEP_RATIO_LIMIT``), or None."""
     if not ratio > STEP_RATIO_LIMIT:
         return None
@@ -376,7 +395,8 @@ def _to_stops(system, integrator, step_data, x0, t0, t_end, h, save_every, progr
         keep = np.isin(out.t[:n], t_eval)
         if not Status(counters[_layout.STATUS]).success:
             keep[n - 1] = True  # the last state reached
-        out = _loop.Output(*(a[:n][keep] for a in out[:4]), counters, out.residual)
+        # the six fields: t, x, H, S (unpacked, which pyright cannot count), counters and residual
+        out = _loop.Output(*(a[:n][keep] for a in out[:4]), counters, out.residual)  # pyright: ignore[reportCallIssue]
         counters[_layout.ROWS] = int(np.count_nonzero(keep))
     t_events, x_events = events.arrays() if events is not None else (None, None)
     last_good = float(out.t[int(counters[_layout.ROWS]) - 1]) if counters[_layout.STATUS] < 0 else 0.0
@@ -418,7 +438,8 @@ def _append(system, out, t, x):
     out.counters[_layout.ROWS] = row + 1
 
 
-def raised_message(system, x, h, raised):
+def raised_message(system: MetriplecticSystem, x: npt.NDArray[np.float64], h: float,
+                   raised: list[BaseException | None]) -> str:
     """Which user function raised during the failed step from ``x``: named from the frames numba keeps in the
     exception's traceback, else found by calling the functions again where the step evaluates them (at ``x`` and
     along the explicit Euler move ``x + s h xi(x)``)."""
@@ -443,7 +464,9 @@ def raised_message(system, x, h, raised):
             f"at the step's start x = {x.tolist()})")
 
 
-def run_message(status, failed, t, t_from, h, counters, residual, integrator, what=None):
+def run_message(status: int, failed: int | None, t: npt.NDArray[np.float64], t_from: float, h: float,
+                counters: npt.NDArray[np.int64], residual: float, integrator: Integrator,
+                what: str | None = None) -> str:
     """The ``message`` of a run (or of one trajectory of an ensemble) that ended with ``status``."""
     status = Status(status)
     rows = len(t)

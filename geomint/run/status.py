@@ -10,6 +10,8 @@ The codes are the compiled kernels' plain integers (``geomint._kernels.layout``,
 ('STEP_TOO_SMALL', True)
 """
 
+from __future__ import annotations
+
 from enum import IntEnum
 
 from .._kernels import layout as _layout
@@ -31,22 +33,22 @@ class Status(IntEnum):
     STEP_TOO_SMALL = _layout.STEP_TOO_SMALL
 
     @property
-    def message(self):
+    def message(self) -> str:
         """What happened, as a sentence fragment."""
         return _MESSAGES[self]
 
     @property
-    def advice(self):
+    def advice(self) -> str:
         """What to do about it ('' where nothing need be done)."""
         return _ADVICE[self]
 
     @property
-    def success(self):
+    def success(self) -> bool:
         """Whether the run reached its end: ``t_end``, or a terminal event."""
         return self in (Status.OK, Status.TERMINATED)
 
     @property
-    def failed(self):
+    def failed(self) -> bool:
         """Whether a step failed (a negative code)."""
         return self < 0
 

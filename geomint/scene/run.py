@@ -179,7 +179,7 @@ def _together(scene, system, method, states, progress):
     seconds = time.perf_counter() - started
     for i in np.flatnonzero(ensemble.status == Status.INVALID_START):
         # raises solve's error (and solve takes save_every=None)
-        solve(system, states[i], span, scene.h, method=method, save_every=save_every)  # pyright: ignore[reportArgumentType]
+        solve(system, states[i], span, scene.h, method=method, save_every=save_every)
     ran = int(np.count_nonzero(ensemble.status != Status.NOT_RUN))  # chunks run in order: the first ``ran``
     solutions = [ensemble.solution(i) for i in range(ran)]
     rows = ensemble.rows[:ran]
@@ -227,9 +227,9 @@ def _one_by_one(scene, system, method, states, progress, checkpoint):
         running = None if folder is None else folder / "running.npz"
         try:
             sol = solve(system, x0, (0.0, scene.duration), scene.h, method=method,
-                        save_every=_save_every(scene),  # pyright: ignore[reportArgumentType]  # None: the final state
+                        save_every=_save_every(scene),
                         progress=None if progress is None else report,
-                        checkpoint=None if folder is None else (running, checkpoint[1]),  # pyright: ignore[reportOptionalSubscript]
+                        checkpoint=None if folder is None else (running, checkpoint[1]),  # pyright: ignore[reportOptionalSubscript, reportArgumentType]
                         resume=running if running is not None and running.exists() else None)
         except KeyboardInterrupt:  # Ctrl-C outside the compiled loop (which answers it with status 2)
             break
