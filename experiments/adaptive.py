@@ -10,7 +10,8 @@ largest deviation over all returned states from scipy's DOP853 at rtol 1e-13
 (dense output), since the relaxed final state says nothing.  The fixed-step
 rows halve h until the same measure is met.  scipy's DOP853 and LSODA get the
 field compiled for this system (``compiled.scipy_rhs``, ~1 us a call from
-Python: the fastest right-hand side a scipy user can hand over).  numbalsoda (compiled LSODA, benchmark extra ``pip install
+Python: the fastest right-hand side a scipy user can hand over).  numbalsoda (compiled LSODA, benchmark extra ``pip
+install
 geomint[bench]``) gets the field as a compiled C callback (``compiled.lsoda_rhs``)
 and returns its interpolant at 1001 equally spaced times, where its error is
 measured; it is left out, and said so, when it is not installed.
@@ -40,7 +41,9 @@ ADAPTIVE = {
     "Projected(DormandPrince853()), adaptive": geomint.Projected(geomint.DormandPrince853()),
     "Projected(DormandPrince54()), adaptive": geomint.Projected(geomint.DormandPrince54()),
     "Gonzalez(), adaptive": geomint.Gonzalez(),
-    "Yoshida4(Gonzalez(), monotone=True), adaptive (step doubling)": geomint.Yoshida4(geomint.Gonzalez(), monotone=True),
+    "Yoshida4(Gonzalez(), monotone=True), adaptive (step doubling)": geomint.Yoshida4(
+        geomint.Gonzalez(), monotone=True
+    ),
 }
 FIXED = {
     "Projected(RK4()), fixed h": geomint.Projected(),
@@ -68,9 +71,11 @@ def ratios(rows):
     lines = [f"Fastest adaptive H-exact, S-monotone method: {best}, {1e3 * wall[best]:.2f} ms."]
     for peer in ("numbalsoda LSODA (compiled)", "scipy DOP853"):
         if peer in wall:
-            lines.append(f"- against {peer}: {wall[best] / wall[peer]:.2f}x its time "
-                         f"({wall[peer] / wall[best]:.1f}x faster)" if wall[best] < wall[peer] else
-                         f"- against {peer}: {wall[best] / wall[peer]:.2f}x its time")
+            lines.append(
+                f"- against {peer}: {wall[best] / wall[peer]:.2f}x its time ({wall[peer] / wall[best]:.1f}x faster)"
+                if wall[best] < wall[peer]
+                else f"- against {peer}: {wall[best] / wall[peer]:.2f}x its time"
+            )
     fixed = wall.get("Gonzalez(), fixed h")
     for label in exact_adaptive:
         if "Gonzalez" in label and fixed is not None:
@@ -83,19 +88,33 @@ def lsoda_row(rows, error, repeats):
     try:
         rhs = lsoda_rhs(BODY)
     except ImportError:
-        return ["numbalsoda is not installed in this run (`pip install geomint[bench]`; it builds from source and "
-                "needs a Fortran compiler, e.g. Debian's gfortran), so compiled LSODA is not in the table."]
+        return [
+            "numbalsoda is not installed in this run (`pip install geomint[bench]`; it builds from source and "
+            "needs a Fortran compiler, e.g. Debian's gfortran), so compiled LSODA is not in the table."
+        ]
     t_eval = np.linspace(0.0, T, 1001)
     for tol in np.logspace(-6, -13, 15):
         states, ok = lsoda_result(rhs, M0, t_eval, tol, tol)
         if ok and error(t_eval, states) <= TARGET:
             wall, (states, ok) = _timed(lambda: lsoda_result(rhs, M0, t_eval, tol, tol), repeats)
             H = BODY.H(states)
-            rows.append(("numbalsoda LSODA (compiled)", False, f"rtol = atol = {tol:.1e}",
-                         error(t_eval, states), "—", "—", float(np.max(np.abs(H - H[0])) / H[0]),
-                         int(np.count_nonzero(np.diff(BODY.S(states)) > 0)), wall))
-            return ["numbalsoda returns its interpolant at 1001 equally spaced times (its step count is not "
-                    "reported); its error is measured there."]
+            rows.append(
+                (
+                    "numbalsoda LSODA (compiled)",
+                    False,
+                    f"rtol = atol = {tol:.1e}",
+                    error(t_eval, states),
+                    "—",
+                    "—",
+                    float(np.max(np.abs(H - H[0])) / H[0]),
+                    int(np.count_nonzero(np.diff(BODY.S(states)) > 0)),
+                    wall,
+                )
+            )
+            return [
+                "numbalsoda returns its interpolant at 1001 equally spaced times (its step count is not "
+                "reported); its error is measured there."
+            ]
     return ["numbalsoda LSODA does not reach the target for rtol down to 1e-13."]
 
 
@@ -118,14 +137,27 @@ def main(argv=None):
             if sol.success:
                 best = min(best, error(sol.t, sol.x))
             if sol.success and error(sol.t, sol.x) <= TARGET:
-                wall, sol = _timed(lambda: geomint.solve(BODY, M0, (0.0, T), rtol=tol, atol=tol, method=method),
-                                         args.repeats)
-                rows.append((label, _exact(method), f"rtol = atol = {tol:.1e}", error(sol.t, sol.x), sol.n_steps,
-                             sol.n_rejected, sol.energy_error, sol.S_rises, wall))
+                wall, sol = _timed(
+                    lambda: geomint.solve(BODY, M0, (0.0, T), rtol=tol, atol=tol, method=method), args.repeats
+                )
+                rows.append(
+                    (
+                        label,
+                        _exact(method),
+                        f"rtol = atol = {tol:.1e}",
+                        error(sol.t, sol.x),
+                        sol.n_steps,
+                        sol.n_rejected,
+                        sol.energy_error,
+                        sol.S_rises,
+                        wall,
+                    )
+                )
                 break
         else:
-            missed.append(f"{label} does not reach {TARGET:g} for rtol = atol down to 1e-12 (smallest error "
-                          f"{best:.2e}).")
+            missed.append(
+                f"{label} does not reach {TARGET:g} for rtol = atol down to 1e-12 (smallest error {best:.2e})."
+            )
     for label, method in FIXED.items():
         h = 0.1
         while True:
@@ -133,20 +165,41 @@ def main(argv=None):
             if sol.success and error(sol.t, sol.x) <= TARGET:
                 break
             h /= 2
-        wall, sol = _timed(lambda: geomint.solve(BODY, M0, (0.0, T), h, method=method, save_every=1),
-                                 max(1, args.repeats // 2))
-        rows.append((label, _exact(method), f"h = {h:.3g}", error(sol.t, sol.x), sol.n_steps, 0, sol.energy_error,
-                     sol.S_rises, wall))
+        wall, sol = _timed(
+            lambda: geomint.solve(BODY, M0, (0.0, T), h, method=method, save_every=1), max(1, args.repeats // 2)
+        )
+        rows.append(
+            (
+                label,
+                _exact(method),
+                f"h = {h:.3g}",
+                error(sol.t, sol.x),
+                sol.n_steps,
+                0,
+                sol.energy_error,
+                sol.S_rises,
+                wall,
+            )
+        )
     for name in ("DOP853", "LSODA"):
         for tol in np.logspace(-6, -13, 15):
             res = solve_ivp(rhs, (0.0, T), M0, method=name, rtol=tol, atol=tol)
             if res.success and error(res.t, res.y.T) <= TARGET:
-                wall, res = _timed(lambda: solve_ivp(rhs, (0.0, T), M0, method=name, rtol=tol, atol=tol),
-                                         args.repeats)
+                wall, res = _timed(lambda: solve_ivp(rhs, (0.0, T), M0, method=name, rtol=tol, atol=tol), args.repeats)
                 H = BODY.H(res.y.T)
-                rows.append((f"scipy {name}", False, f"rtol = atol = {tol:.1e}", error(res.t, res.y.T), res.t.size - 1,
-                             0, float(np.max(np.abs(H - H[0])) / H[0]), int(np.count_nonzero(np.diff(BODY.S(res.y.T)) > 0)),
-                             wall))
+                rows.append(
+                    (
+                        f"scipy {name}",
+                        False,
+                        f"rtol = atol = {tol:.1e}",
+                        error(res.t, res.y.T),
+                        res.t.size - 1,
+                        0,
+                        float(np.max(np.abs(H - H[0])) / H[0]),
+                        int(np.count_nonzero(np.diff(BODY.S(res.y.T)) > 0)),
+                        wall,
+                    )
+                )
                 break
     lines_after = missed + lsoda_row(rows, error, args.repeats) + ratios(rows)
     lines = [
@@ -161,8 +214,10 @@ def main(argv=None):
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for label, exact, setting, err, steps, rejected, dH, rises, wall in rows:
-        lines.append(f"| {label} | {'yes' if exact else 'no'} | {setting} | {err:.2e} | {steps} | {rejected} | "
-                     f"{dH:.1e} | {rises} | {1e3 * wall:.2f} |")
+        lines.append(
+            f"| {label} | {'yes' if exact else 'no'} | {setting} | {err:.2e} | {steps} | {rejected} | "
+            f"{dH:.1e} | {rises} | {1e3 * wall:.2f} |"
+        )
     for note in lines_after:  # paragraphs, and a loose list
         lines += ["", note]
     (DOCS / "adaptive_speed.md").write_text("\n".join(lines) + "\n")

@@ -86,7 +86,9 @@ def per_step(system, methods, n, repeats, run_seconds=None):
         for method in methods:
             t_span = (0.0, steps[method.label] * H_STEP)
             start = time.perf_counter()
-            solutions[method.label] = geomint.solve(system, X0, t_span, H_STEP, method=method.integrator, save_every=None)
+            solutions[method.label] = geomint.solve(
+                system, X0, t_span, H_STEP, method=method.integrator, save_every=None
+            )
             times[method.label].append(time.perf_counter() - start)
     results = {}
     for label, solution in solutions.items():
@@ -95,16 +97,22 @@ def per_step(system, methods, n, repeats, run_seconds=None):
         x = np.abs(solution.x_final)
         note = " (subnormal state!)" if np.any((x > 0) & (x < SMALLEST_NORMAL)) else ""
         note += "" if solution.success else f" (failed at step {solution.failed_step})"
-        results[label] = (1e9 * statistics.median(times[label]) / solution.n_steps, solution.nfev / solution.n_steps,
-                          solution.n_newton / solution.n_steps, note)
+        results[label] = (
+            1e9 * statistics.median(times[label]) / solution.n_steps,
+            solution.nfev / solution.n_steps,
+            solution.n_newton / solution.n_steps,
+            note,
+        )
     return results
 
 
 def solve_overhead_ms(system, method):
-    """Median wall time of a one-step ``geomint.solve``: the fixed cost of a call (validation, H(x0), S(x0), dispatch)."""
+    """Median wall time of a one-step ``geomint.solve``: the fixed cost of a call (validation, H(x0), S(x0),
+    dispatch)."""
     geomint.solve(system, X0, (0.0, H_STEP), H_STEP, method=method.integrator, save_every=None)
-    seconds, _ = median_time(lambda: geomint.solve(system, X0, (0.0, H_STEP), H_STEP, method=method.integrator,
-                                                   save_every=None), 21)
+    seconds, _ = median_time(
+        lambda: geomint.solve(system, X0, (0.0, H_STEP), H_STEP, method=method.integrator, save_every=None), 21
+    )
     return 1e3 * seconds
 
 
@@ -130,12 +138,22 @@ def pointer_call_profile(system, methods, n, repeats):
     return rows, slope, intercept
 
 
-HEADERS = ["system", "method", "ns/step", "x RK4", "field evals/step", "Newton its/step", "field ns inlined",
-           "field ns via pointers", "ns/step / (evals x field ns via pointers)"]
+HEADERS = [
+    "system",
+    "method",
+    "ns/step",
+    "x RK4",
+    "field evals/step",
+    "Newton its/step",
+    "field ns inlined",
+    "field ns via pointers",
+    "ns/step / (evals x field ns via pointers)",
+]
 
 
 def run(quick=False, log=print):
-    """The benchmark text (markdown), ``{system: {label: (ns/step, ratio to RK4)}}`` and ``{label: ms per solve call}``."""
+    """The benchmark text (markdown), ``{system: {label: (ns/step, ratio to RK4)}}`` and ``{label: ms per solve
+    call}``."""
     n, repeats = (20_000, 3) if quick else (200_000, 7)
     methods = geomint_methods()
     rows, ratios = [], {}
@@ -146,8 +164,9 @@ def run(quick=False, log=print):
         ratios[name] = {}
         for label, (ns, evals, newton, note) in results.items():
             ratios[name][label] = (ns, ns / base)
-            rows.append([name, label + note, ns, ns / base, evals, newton, inlined_ns,
-                         pointer_ns, ns / (evals * pointer_ns)])
+            rows.append(
+                [name, label + note, ns, ns / base, evals, newton, inlined_ns, pointer_ns, ns / (evals * pointer_ns)]
+            )
         log(f"  benchmark {name} done")
     name, system = catalogue()[0]
     overhead = {m.label: solve_overhead_ms(system, m) for m in methods}
@@ -155,25 +174,35 @@ def run(quick=False, log=print):
     labels = [m.label for m in methods]
     profile_table = markdown_table(
         ["field on " + name, "user-function calls per RK4 step"] + [f"{label} ns/step" for label in labels],
-        [[variant, calls] + [ns.get(label) for label in labels] for variant, calls, ns in profile])
-    text = "\n\n".join([
-        "## Per-step cost (benchmark)",
-        f"`PYTHONPATH=. python -m experiments.benchmark{' --quick' if quick else ''}`: median of {repeats} interleaved runs of "
-        f"up to {n} steps of h = {H_STEP:g} (fewer where that would take over {RUN_SECONDS:g} s) from x0 = "
-        f"{X0.tolist()}, every catalogue system with its default arguments, "
-        "ratios to compiled RK4 on the same system in the same run. Profile: a field evaluation timed in a compiled "
-        "loop with the user functions inlined, and reached through typed first-class function pointers as the "
-        "library's kernels reach them; the last column is the step cost over the cost of its field evaluations "
-        "through pointers (1 = a step is nothing but field evaluations).",
-        markdown_table(HEADERS, rows),
-        f"Fixed cost of one `geomint.solve` call (one step, {name}), ms: "
-        + ", ".join(f"{label} {ms:.3g}" for label, ms in overhead.items()) + ".",
-        "Where a step's time goes: the same system with parts of the field switched off "
-        "(`system.with_effects`), so that an RK4 step makes fewer calls of user functions through function pointers. "
-        + (f"Fitted over the RK4 column: {slope:.3g} ns per call, {intercept:.3g} ns per step besides the calls."
-           if slope > 0 else "In this run the timing noise exceeded the effect (fitted slope <= 0); rerun on a quiet machine."),
-        profile_table,
-    ])
+        [[variant, calls] + [ns.get(label) for label in labels] for variant, calls, ns in profile],
+    )
+    text = "\n\n".join(
+        [
+            "## Per-step cost (benchmark)",
+            f"`PYTHONPATH=. python -m experiments.benchmark{' --quick' if quick else ''}`: median of {repeats} "
+            "interleaved runs of "
+            f"up to {n} steps of h = {H_STEP:g} (fewer where that would take over {RUN_SECONDS:g} s) from x0 = "
+            f"{X0.tolist()}, every catalogue system with its default arguments, "
+            "ratios to compiled RK4 on the same system in the same run. Profile: a field evaluation timed in a "
+            "compiled "
+            "loop with the user functions inlined, and reached through typed first-class function pointers as the "
+            "library's kernels reach them; the last column is the step cost over the cost of its field evaluations "
+            "through pointers (1 = a step is nothing but field evaluations).",
+            markdown_table(HEADERS, rows),
+            f"Fixed cost of one `geomint.solve` call (one step, {name}), ms: "
+            + ", ".join(f"{label} {ms:.3g}" for label, ms in overhead.items())
+            + ".",
+            "Where a step's time goes: the same system with parts of the field switched off "
+            "(`system.with_effects`), so that an RK4 step makes fewer calls of user functions through function "
+            "pointers. "
+            + (
+                f"Fitted over the RK4 column: {slope:.3g} ns per call, {intercept:.3g} ns per step besides the calls."
+                if slope > 0
+                else "In this run the timing noise exceeded the effect (fitted slope <= 0); rerun on a quiet machine."
+            ),
+            profile_table,
+        ]
+    )
     return text, ratios, overhead
 
 

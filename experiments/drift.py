@@ -93,21 +93,46 @@ def table_rows(problem, runs, settings):
     for run in runs:
         p, law = growth_law(run.windows.centers, run.windows.maxima, settings.fit_from)
         attractor, exact = final_errors(problem, run)
-        rows.append([
-            run.label, run.t_reached, run.n_steps, run.nfev, run.wall, float(np.nanmax(run.windows.maxima)),
-            p, law, run.S_rises, attractor, exact, run.note,
-        ])
+        rows.append(
+            [
+                run.label,
+                run.t_reached,
+                run.n_steps,
+                run.nfev,
+                run.wall,
+                float(np.nanmax(run.windows.maxima)),
+                p,
+                law,
+                run.S_rises,
+                attractor,
+                exact,
+                run.note,
+            ]
+        )
     return rows
 
 
-HEADERS = ["method", "t reached", "steps", "field evals", "wall s", "max |H-H0|/|H0|", "growth p", "law",
-           "S rises", "final: dist. to attractor", "final: error vs exact", "note"]
+HEADERS = [
+    "method",
+    "t reached",
+    "steps",
+    "field evals",
+    "wall s",
+    "max |H-H0|/|H0|",
+    "growth p",
+    "law",
+    "S rises",
+    "final: dist. to attractor",
+    "final: error vs exact",
+    "note",
+]
 
 
 def plot(problem, runs, ax, settings):
     series = [(run.label, run.windows.centers, run.windows.maxima, settings.fit_from) for run in runs]
-    plotting.drift_windows(series, ax, legend=False, law_in_key=False,
-                           linestyles=["-" if run.kind == "geomint" else "--" for run in runs])
+    plotting.drift_windows(
+        series, ax, legend=False, law_in_key=False, linestyles=["-" if run.kind == "geomint" else "--" for run in runs]
+    )
     ax.set_title(problem.title)
 
 
@@ -120,17 +145,23 @@ def main(quick=False, out=None, log=print):
     for ax, problem in zip(axes, drift_problems()):
         runs = run_problem(problem, settings, methods, log)
         plot(problem, runs, ax, settings)
-        sections.append(f"**{problem.title}**, h = {settings.h:g} for geomint methods\n\n"
-                        + markdown_table(HEADERS, table_rows(problem, runs, settings)))
+        sections.append(
+            f"**{problem.title}**, h = {settings.h:g} for geomint methods\n\n"
+            + markdown_table(HEADERS, table_rows(problem, runs, settings))
+        )
     fig.legend(*axes[0].get_legend_handles_labels(), loc="center left", bbox_to_anchor=(1.0, 0.5), fontsize=7)
     name = save(fig, "drift.png", **({} if out is None else {"out": out}))
-    return "\n\n".join([
-        "## Long-time drift",
-        f"Windowed maxima of |H - H0|/|H0| over {settings.windows} log-spaced windows; growth law fitted for "
-        f"t >= {settings.fit_from:g}. Solid: geomint (every step seen, steps of h = {settings.h:g}); dashed: "
-        f"scipy solve_ivp (atol = 1e-3 rtol). Wall budgets per run: geomint {settings.compiled_budget_for(len(methods)):.3g} s, "
-        f"scipy {settings.scipy_budget:g} s (a run over budget stops and says where). 'S rises': steps with "
-        "S_{n+1} - S_n > 16 eps |S| (for eps = 0, S is a Casimir and any rise is drift). Wall times include "
-        "saving every step (geomint) or computing H and S at every step (scipy).",
-        f"![drift]({name})", *sections,
-    ])
+    return "\n\n".join(
+        [
+            "## Long-time drift",
+            f"Windowed maxima of |H - H0|/|H0| over {settings.windows} log-spaced windows; growth law fitted for "
+            f"t >= {settings.fit_from:g}. Solid: geomint (every step seen, steps of h = {settings.h:g}); dashed: "
+            "scipy solve_ivp (atol = 1e-3 rtol). Wall budgets per run: geomint "
+            f"{settings.compiled_budget_for(len(methods)):.3g} s, "
+            f"scipy {settings.scipy_budget:g} s (a run over budget stops and says where). 'S rises': steps with "
+            "S_{n+1} - S_n > 16 eps |S| (for eps = 0, S is a Casimir and any rise is drift). Wall times include "
+            "saving every step (geomint) or computing H and S at every step (scipy).",
+            f"![drift]({name})",
+            *sections,
+        ]
+    )

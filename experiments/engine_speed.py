@@ -65,20 +65,27 @@ def _medians(runs, repeats):
 def per_step(n, repeats):
     body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
     h = 0.01
-    methods = {"geomint RK4": geomint.RK4(), "geomint Gonzalez": geomint.Gonzalez(),
-               "geomint Projected(RK4)": geomint.Projected(), "geomint Yoshida4(Gonzalez)": geomint.Yoshida4()}
+    methods = {
+        "geomint RK4": geomint.RK4(),
+        "geomint Gonzalez": geomint.Gonzalez(),
+        "geomint Projected(RK4)": geomint.Projected(),
+        "geomint Yoshida4(Gonzalez)": geomint.Yoshida4(),
+    }
     runs = {
         "RK4 by hand, field inlined": lambda: floors.rk4_inlined(0.5, 1.0, 1.5, 0.1, X0, h, n),
         "RK4 by hand, first-class functions + flush": lambda: floors.rk4_first_class(body.model, 0.1, X0, h, n),
     }
     systems = {label: body for label in methods}
     moving = body.with_effects(eps=1e-6)  # relaxes on a time scale ~1e6: moving throughout the run
-    for label, method in (("geomint RK4, eps = 1e-6", geomint.RK4()),
-                          ("geomint Gonzalez, eps = 1e-6 (moving throughout)", geomint.Gonzalez())):
+    for label, method in (
+        ("geomint RK4, eps = 1e-6", geomint.RK4()),
+        ("geomint Gonzalez, eps = 1e-6 (moving throughout)", geomint.Gonzalez()),
+    ):
         methods[label], systems[label] = method, moving
     for label, method in methods.items():
-        runs[label] = lambda method=method, system=systems[label]: geomint.solve(system, X0, (0.0, n * h), h,
-                                                                                method=method, save_every=None)
+        runs[label] = lambda method=method, system=systems[label]: geomint.solve(
+            system, X0, (0.0, n * h), h, method=method, save_every=None
+        )
     medians = _medians(runs, repeats)
     iterations = {}
     for label, method in methods.items():
@@ -106,8 +113,9 @@ def whole_solves(repeats):
     results = {}
     runs = {
         "geomint Gonzalez, h = 0.01": lambda: geomint.solve(body, X0, (0.0, T), 0.01, save_every=None),
-        "geomint Projected(RK4), h = 0.05": lambda: geomint.solve(body, X0, (0.0, T), 0.05, method="projected",
-                                                                  save_every=None),
+        "geomint Projected(RK4), h = 0.05": lambda: geomint.solve(
+            body, X0, (0.0, T), 0.05, method="projected", save_every=None
+        ),
         "scipy DOP853, rtol 1e-10": lambda: solve_ivp(_rhs, (0.0, T), X0, method="DOP853", rtol=1e-10, atol=1e-12),
     }
     medians = _medians(runs, repeats)
@@ -123,21 +131,36 @@ def report(steps, iterations, single, solves, n, repeats):
     floor = steps["RK4 by hand, first-class functions + flush"]
     rk4 = steps["geomint RK4"]
     gonzalez = steps["geomint Gonzalez"]
-    lines = ["# Engine speed", "", "Regenerate: `PYTHONPATH=. python -m experiments.engine_speed`. "
-             f"{n} steps per run, medians of {repeats} interleaved repeats, one process; ratios within the run.", "",
-             "## Per step (relaxing rigid body, eps = 0.1, h = 0.01, final state only)", "",
-             "| | ns/step | / first-class floor | / geomint RK4 | / geomint Gonzalez | Newton iterations/step |",
-             "|---|---|---|---|---|---|"]
+    lines = [
+        "# Engine speed",
+        "",
+        "Regenerate: `PYTHONPATH=. python -m experiments.engine_speed`. "
+        f"{n} steps per run, medians of {repeats} interleaved repeats, one process; ratios within the run.",
+        "",
+        "## Per step (relaxing rigid body, eps = 0.1, h = 0.01, final state only)",
+        "",
+        "| | ns/step | / first-class floor | / geomint RK4 | / geomint Gonzalez | Newton iterations/step |",
+        "|---|---|---|---|---|---|",
+    ]
     for name, ns in steps.items():
         its = f"{iterations[name]:.2f}" if name in iterations else ""
         lines.append(f"| {name} | {ns:.0f} | {ns / floor:.2f} | {ns / rk4:.2f} | {ns / gonzalez:.2f} | {its} |")
-    lines += ["", "The relaxing body reaches its stable pole by t ~ 50: most of these steps are taken at rest, where "
-              "an implicit step converges in one Newton iteration. With eps = 1e-6 the same body relaxes on a time "
-              "scale ~1e6 and is still moving at the end: the cost of a step on a moving state (the ratio columns "
-              "divide by the eps = 0.1 rows; the moving Gonzalez/RK4 ratio is in the last table)."]
-    lines += ["", f"`system.xi(x)` on one state: {single:.2f} us (median of {repeats} x 1000 calls).", "",
-              "## Whole solves to T = 100 against scipy", "", "| | ms | / scipy DOP853 | final |H - H0|/H0 |",
-              "|---|---|---|---|"]
+    lines += [
+        "",
+        "The relaxing body reaches its stable pole by t ~ 50: most of these steps are taken at rest, where "
+        "an implicit step converges in one Newton iteration. With eps = 1e-6 the same body relaxes on a time "
+        "scale ~1e6 and is still moving at the end: the cost of a step on a moving state (the ratio columns "
+        "divide by the eps = 0.1 rows; the moving Gonzalez/RK4 ratio is in the last table).",
+    ]
+    lines += [
+        "",
+        f"`system.xi(x)` on one state: {single:.2f} us (median of {repeats} x 1000 calls).",
+        "",
+        "## Whole solves to T = 100 against scipy",
+        "",
+        "| | ms | / scipy DOP853 | final |H - H0|/H0 |",
+        "|---|---|---|---|",
+    ]
     scipy_time = solves["scipy DOP853, rtol 1e-10"][0]
     for name, (seconds, error) in solves.items():
         lines.append(f"| {name} | {1e3 * seconds:.2f} | {seconds / scipy_time:.2f} | {error:.1e} |")
@@ -145,11 +168,17 @@ def report(steps, iterations, single, solves, n, repeats):
 
 
 #: the ratios the engine is held to: (label, numerator, denominator, at most)
-TARGETS = (("geomint RK4 / first-class floor", "geomint RK4", "RK4 by hand, first-class functions + flush", 1.3),
-           ("geomint Gonzalez / geomint RK4", "geomint Gonzalez", "geomint RK4", 2.0),
-           ("geomint Yoshida4(Gonzalez) / geomint Gonzalez", "geomint Yoshida4(Gonzalez)", "geomint Gonzalez", 3.5),
-           ("the same, eps = 1e-6 (moving): geomint Gonzalez / geomint RK4",
-            "geomint Gonzalez, eps = 1e-6 (moving throughout)", "geomint RK4, eps = 1e-6", 2.0))
+TARGETS = (
+    ("geomint RK4 / first-class floor", "geomint RK4", "RK4 by hand, first-class functions + flush", 1.3),
+    ("geomint Gonzalez / geomint RK4", "geomint Gonzalez", "geomint RK4", 2.0),
+    ("geomint Yoshida4(Gonzalez) / geomint Gonzalez", "geomint Yoshida4(Gonzalez)", "geomint Gonzalez", 3.5),
+    (
+        "the same, eps = 1e-6 (moving): geomint Gonzalez / geomint RK4",
+        "geomint Gonzalez, eps = 1e-6 (moving throughout)",
+        "geomint RK4, eps = 1e-6",
+        2.0,
+    ),
+)
 
 
 def spread(n, repeats, processes):
@@ -161,12 +190,18 @@ def spread(n, repeats, processes):
     for _ in range(processes):
         with context.Pool(1) as pool:
             samples.append(pool.apply(per_step, (n, repeats))[0])
-    lines = ["", f"## The same ratios in {processes} fresh processes", "",
-             "| ratio | per process | median | at most |", "|---|---|---|---|"]
+    lines = [
+        "",
+        f"## The same ratios in {processes} fresh processes",
+        "",
+        "| ratio | per process | median | at most |",
+        "|---|---|---|---|",
+    ]
     for label, top, bottom, most in TARGETS:
         ratios = [sample[top] / sample[bottom] for sample in samples]
-        lines.append(f"| {label} | {', '.join(f'{r:.2f}' for r in ratios)} | {statistics.median(ratios):.2f} | "
-                     f"{most} |")
+        lines.append(
+            f"| {label} | {', '.join(f'{r:.2f}' for r in ratios)} | {statistics.median(ratios):.2f} | {most} |"
+        )
     return "\n".join(lines) + "\n"
 
 

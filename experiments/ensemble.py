@@ -50,20 +50,31 @@ def speed(starts, steps, repeats):
     X0 /= np.linalg.norm(X0, axis=1)[:, None]
     span, h, cores = (0.0, steps * 0.01), 0.01, numba.config.NUMBA_NUM_THREADS
     runs = {
-        f"floor: prange implicit midpoint, field inlined, {cores} threads":
-            lambda: midpoint_batch_inlined(0.5, 1.0, 1.5, 0.1, X0, h, steps),
-        "floor: the same, 1 thread": lambda: _one_thread(lambda: midpoint_batch_inlined(0.5, 1.0, 1.5, 0.1, X0, h, steps)),
-        f"geomint solve_ensemble(Gonzalez), {cores} threads":
-            lambda: geomint.solve_ensemble(body, X0, span, h, save_every=None).x_final,
-        "geomint solve_ensemble(Gonzalez), 1 thread":
-            lambda: geomint.solve_ensemble(body, X0, span, h, save_every=None, threads=1).x_final,
-        "geomint's Gonzalez step loop from a Python loop, first-class functions (as the library), 1 thread":
-            lambda: _step_loop(body, X0, span, h, steps, inlined=False),
-        "geomint's Gonzalez step loop from a Python loop, user functions inlined (a per-system compile), 1 thread":
-            lambda: _step_loop(body, X0, span, h, steps, inlined=True),
-        f"geomint solve_ensemble(Projected(DormandPrince54())), adaptive rtol = 1e-6, atol = 1e-8, {cores} threads":
-            lambda: geomint.solve_ensemble(body, X0, span, method=geomint.Projected(geomint.DormandPrince54()),
-                                           rtol=1e-6, atol=1e-8).x_final,
+        f"floor: prange implicit midpoint, field inlined, {cores} threads": lambda: midpoint_batch_inlined(
+            0.5, 1.0, 1.5, 0.1, X0, h, steps
+        ),
+        "floor: the same, 1 thread": lambda: _one_thread(
+            lambda: midpoint_batch_inlined(0.5, 1.0, 1.5, 0.1, X0, h, steps)
+        ),
+        f"geomint solve_ensemble(Gonzalez), {cores} threads": lambda: (
+            geomint.solve_ensemble(body, X0, span, h, save_every=None).x_final
+        ),
+        "geomint solve_ensemble(Gonzalez), 1 thread": lambda: (
+            geomint.solve_ensemble(body, X0, span, h, save_every=None, threads=1).x_final
+        ),
+        "geomint's Gonzalez step loop from a Python loop, first-class functions (as the library), 1 thread": lambda: (
+            _step_loop(body, X0, span, h, steps, inlined=False)
+        ),
+        (
+            "geomint's Gonzalez step loop from a Python loop, user functions inlined (a per-system compile), 1 thread"
+        ): lambda: _step_loop(body, X0, span, h, steps, inlined=True),
+        (
+            f"geomint solve_ensemble(Projected(DormandPrince54())), adaptive rtol = 1e-6, atol = 1e-8, {cores} threads"
+        ): lambda: (
+            geomint.solve_ensemble(
+                body, X0, span, method=geomint.Projected(geomint.DormandPrince54()), rtol=1e-6, atol=1e-8
+            ).x_final
+        ),
     }
     for run in runs.values():  # compile
         run()
@@ -98,10 +109,27 @@ def _step_loop(body, X0, span, h, steps, inlined):
     for i, x0 in enumerate(X0):
         state, work = np.zeros(layout.N_STATE), np.zeros(layout.WORK)
         state[:3], state[layout.STATE_ANCHOR] = x0, np.nan
-        out = loop.Output(np.empty(3), np.empty((3, 3)), np.empty(3), np.empty(3),
-                            np.zeros(layout.N_COUNTERS, dtype=np.int64), np.zeros(1))
-        loop.run(model, body.eps, body.hamiltonian, method, grid, state, work, layout.new_clock(t0), np.array([t_end]),
-                 steps, out)
+        out = loop.Output(
+            np.empty(3),
+            np.empty((3, 3)),
+            np.empty(3),
+            np.empty(3),
+            np.zeros(layout.N_COUNTERS, dtype=np.int64),
+            np.zeros(1),
+        )
+        loop.run(
+            model,
+            body.eps,
+            body.hamiltonian,
+            method,
+            grid,
+            state,
+            work,
+            layout.new_clock(t0),
+            np.array([t_end]),
+            steps,
+            out,
+        )
         finals[i] = state[:3]
     return finals
 
@@ -130,7 +158,7 @@ def relaxation(path):
     times = np.full((len(eps), len(starts)), np.nan)
     for k in range(len(result)):
         e, s = divmod(k, len(starts))
-        close = np.nonzero(result.S[k, :result.rows[k]] - S_inf[s] < 1e-6 * S_inf[s])[0]
+        close = np.nonzero(result.S[k, : result.rows[k]] - S_inf[s] < 1e-6 * S_inf[s])[0]
         times[e, s] = result.t[k, close[0]] if close.size else np.nan
     slope = np.polyfit(np.log(eps), np.log(np.nanmean(times, axis=1)), 1)[0]
     fig, ax = plt.subplots(figsize=(5.5, 4))
@@ -177,15 +205,20 @@ def main(argv=None):
         f"{medians[f'geomint solve_ensemble(Gonzalez), {cores} threads'] / one:.2f}.",
         "",
         "With the user functions inlined (the row compiled for this system only; final states identical: "
-        f"{inlined_identical}) the step loop is {loop_first_class / loop_inlined:.2f}x faster on one thread than the same "
-        f"loop through first-class functions; it is {loop_inlined / floor_one:.1f}x the one-thread floor. What remains between it and the floor is the "
+        f"{inlined_identical}) the step loop is {loop_first_class / loop_inlined:.2f}x faster on one thread than the "
+        "same "
+        f"loop through first-class functions; it is {loop_inlined / floor_one:.1f}x the one-thread floor. What "
+        "remains between it and the floor is the "
         "Gonzalez step's own work, which the floor's fixed-point midpoint does not do: a simplified Newton "
         "iteration with a 3x3 solve, H and S at every iterate so that only exact iterates are accepted, the "
         "discrete-gradient switching rules and compensated summation.",
     ]
     slope, failed = relaxation(DOCS / "relaxation_vs_eps.png")
-    lines += ["", f"Relaxation time against eps (docs/relaxation_vs_eps.png): fitted log-log slope {slope:.3f} "
-                  f"(the ~1/eps law is -1); {failed} of the sweep's trajectories failed."]
+    lines += [
+        "",
+        f"Relaxation time against eps (docs/relaxation_vs_eps.png): fitted log-log slope {slope:.3f} "
+        f"(the ~1/eps law is -1); {failed} of the sweep's trajectories failed.",
+    ]
     (DOCS / "ensemble_speed.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 

@@ -81,7 +81,9 @@ def stiff_relaxation(method):
 def equal_coefficients(method):
     moved = []
     for b in (1.5, 1.5 * (1 - 1e-12)):
-        sol = geomint.solve(geomint.systems.relaxing_rigid_body(0.5, b, 1.5, 1.0), [0, 0.6, 0.8], (0, 50), 0.1, method=method)
+        sol = geomint.solve(
+            geomint.systems.relaxing_rigid_body(0.5, b, 1.5, 1.0), [0, 0.6, 0.8], (0, 50), 0.1, method=method
+        )
         moved.append(np.max(np.abs(sol.x - [0, 0.6, 0.8])))
     return moved[0] <= 4 * EPS and moved[1] <= 1e-9, f"moves {moved[0]:.0e} (b = c), {moved[1]:.1e} (b = c(1-1e-12))"
 
@@ -94,7 +96,9 @@ def unstable_equilibria(method):
         x0 = np.array([0.0, 1.0, sign * 1e-12])
         sol = geomint.solve(body, x0, (0, 200), 0.1, method=method)
         misses.append(np.max(np.abs(sol.x_final - [0, 0, sign * np.sqrt(2 * body.H(x0) / 1.5)])))
-    return still == 0.0 and max(misses) <= 1e-8, f"on axis moves {still:.0e}; off by 1e-12 ends {max(misses):.1e} from +-z"
+    return still == 0.0 and max(
+        misses
+    ) <= 1e-8, f"on axis moves {still:.0e}; off by 1e-12 ends {max(misses):.1e} from +-z"
 
 
 def scaled_states(method):
@@ -103,7 +107,9 @@ def scaled_states(method):
     worst = 0.0
     for power in (-498, 332):
         lam = 2.0**power
-        sol = geomint.solve(geomint.systems.relaxing_rigid_body(eps=0.5 / lam), lam * x0, (0, 5 / lam), 0.05 / lam, method=method)
+        sol = geomint.solve(
+            geomint.systems.relaxing_rigid_body(eps=0.5 / lam), lam * x0, (0, 5 / lam), 0.05 / lam, method=method
+        )
         worst = max(worst, np.max(np.abs(sol.x / lam - base.x)) if sol.success else np.inf)
     return worst <= 1e-13, f"|x/lam - x| <= {worst:.1e} (lam = 2^-498, 2^332)"
 
@@ -124,7 +130,9 @@ def subnormal_decay(method):
     subnormal = np.any((z > 0) & (z < np.finfo(float).tiny))
     late = sol.x[np.argmax(sol.t >= 690)]  # z ~ 1e-300 without flushing: the slow range
     ratio = _median_seconds_per_step(osc, late, method) / _median_seconds_per_step(osc, [0.6, 0, 0.8], method)
-    return not subnormal and z[-1] == 0.0 and exact(sol) <= 64 * EPS, f"z -> 0 exactly; cost ratio late/early {ratio:.2f}"
+    return not subnormal and z[-1] == 0.0 and exact(
+        sol
+    ) <= 64 * EPS, f"z -> 0 exactly; cost ratio late/early {ratio:.2f}"
 
 
 def long_run(method, steps):
@@ -158,7 +166,9 @@ def compensation_figures(steps):
     rows = []
     for label, system in systems.items():
         errors = [
-            geomint.solve(system, X0, (0, steps * 0.05), 0.05, method=geomint.Gonzalez(compensated=c), save_every=100).energy_error
+            geomint.solve(
+                system, X0, (0, steps * 0.05), 0.05, method=geomint.Gonzalez(compensated=c), save_every=100
+            ).energy_error
             for c in (False, True)
         ]
         rows.append(f"| {label} | {errors[0]:.2e} | {errors[1]:.2e} |")
@@ -187,7 +197,7 @@ def main():
     for marker, body in (("TABLE", table), ("COMPENSATION", comp)):
         begin, end = f"<!-- {marker} BEGIN -->", f"<!-- {marker} END -->"
         if begin in text:
-            text = text[: text.index(begin) + len(begin)] + "\n" + body + "\n" + text[text.index(end):]
+            text = text[: text.index(begin) + len(begin)] + "\n" + body + "\n" + text[text.index(end) :]
     DOC.write_text(text)
     print(f"wrote {DOC}")
 

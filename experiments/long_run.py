@@ -56,9 +56,16 @@ def run(steps, eps, h):
     wall = time.perf_counter() - start
     x = np.abs(solution.x_final)
     return {
-        "steps": solution.n_steps, "eps": eps, "h": h, "wall_s": wall, "ns_per_step": 1e9 * wall / solution.n_steps,
-        "peak_rss_mb": _peak_mb(), "baseline_rss_mb": baseline, "success": solution.success,
-        "energy_error": solution.energy_error, "newton_per_step": solution.n_newton / solution.n_steps,
+        "steps": solution.n_steps,
+        "eps": eps,
+        "h": h,
+        "wall_s": wall,
+        "ns_per_step": 1e9 * wall / solution.n_steps,
+        "peak_rss_mb": _peak_mb(),
+        "baseline_rss_mb": baseline,
+        "success": solution.success,
+        "energy_error": solution.energy_error,
+        "newton_per_step": solution.n_newton / solution.n_steps,
         "nfev_per_step": solution.nfev / solution.n_steps,
         "distance_to_attractor": float(np.linalg.norm(solution.x_final - problem.attractor)),
         "subnormal_components": int(np.count_nonzero((x > 0) & (x < SMALLEST_NORMAL))),
@@ -91,7 +98,17 @@ def measure(steps, eps=1e-4, h=0.01):
     root = Path(__file__).resolve().parent.parent
     environment = {**os.environ, "PYTHONPATH": str(root)}
     for count in (10, steps):
-        command = [sys.executable, "-m", "experiments.long_run", "--steps", str(int(count)), "--eps", repr(eps), "--h", repr(h)]
+        command = [
+            sys.executable,
+            "-m",
+            "experiments.long_run",
+            "--steps",
+            str(int(count)),
+            "--eps",
+            repr(eps),
+            "--h",
+            repr(h),
+        ]
         done = subprocess.run(command, capture_output=True, text=True, cwd=root, check=True, env=environment)
     return json.loads(done.stdout.strip().splitlines()[-1])
 

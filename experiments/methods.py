@@ -27,10 +27,22 @@ _CANDIDATES = (
 
 #: geomint methods run with adaptive steps (h=None, rtol = atol) in the work-precision sweeps
 _ADAPTIVE = (
-    ("Projected(DormandPrince853) adaptive", ("Projected", "DormandPrince853"), lambda g: g.Projected(g.DormandPrince853())),
-    ("Projected(DormandPrince54) adaptive", ("Projected", "DormandPrince54"), lambda g: g.Projected(g.DormandPrince54())),
+    (
+        "Projected(DormandPrince853) adaptive",
+        ("Projected", "DormandPrince853"),
+        lambda g: g.Projected(g.DormandPrince853()),
+    ),
+    (
+        "Projected(DormandPrince54) adaptive",
+        ("Projected", "DormandPrince54"),
+        lambda g: g.Projected(g.DormandPrince54()),
+    ),
     ("Gonzalez adaptive", ("Gonzalez",), lambda g: g.Gonzalez()),
-    ("Yoshida4(Gonzalez, monotone) adaptive", ("Yoshida4", "Gonzalez"), lambda g: g.Yoshida4(g.Gonzalez(), monotone=True)),
+    (
+        "Yoshida4(Gonzalez, monotone) adaptive",
+        ("Yoshida4", "Gonzalez"),
+        lambda g: g.Yoshida4(g.Gonzalez(), monotone=True),
+    ),
 )
 
 #: scipy.integrate.solve_ivp methods and the relative tolerances of the drift runs
@@ -67,8 +79,11 @@ class Method:
 
 def adaptive_methods(module=geomint):
     """The geomint methods the work-precision sweeps also run with adaptive steps."""
-    return [Method(label, build(module)) for label, needs, build in _ADAPTIVE
-            if all(hasattr(module, name) for name in needs)]
+    return [
+        Method(label, build(module))
+        for label, needs, build in _ADAPTIVE
+        if all(hasattr(module, name) for name in needs)
+    ]
 
 
 def geomint_methods(module=geomint, skipped=None):

@@ -16,7 +16,7 @@ from .compiled import fixed_point_gonzalez
 from .methods import GONZALEZ, geomint_methods
 from .report import figure, markdown_table, save
 
-TOLERANCES = tuple(10.0 ** -k for k in range(2, 17))
+TOLERANCES = tuple(10.0**-k for k in range(2, 17))
 
 
 def measure(problem, h, n, tolerances=TOLERANCES, max_iter=200):
@@ -48,13 +48,20 @@ def main(quick=False, out=None, log=print):
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7)
     name = save(fig, "newton_tolerance.png", **({} if out is None else {"out": out}))
-    table = markdown_table(["tau", "max abs(H-H0)/abs(H0)", "S rises", "iterations/step"],
-                           [list(r) for r in rows] + [["geomint (round-off)", geomint_error, geomint_rises, geomint_iterations]])
-    return "\n\n".join([
-        "## Newton tolerance vs energy error",
-        "geomint solves each implicit step to round-off and has no tolerance to loosen; this figure *emulates* a "
-        "loose solve with a small compiled fixed-point iteration of the same Gonzalez discrete field "
-        "(`experiments/compiled.py::fixed_point_gonzalez`, stopped when the update is below tau; the last row is "
-        "geomint itself, whose iterations are Newton's). The energy error follows tau: exactness is only as good as "
-        "the solve.", f"![newton tolerance]({name})", table,
-    ])
+    table = markdown_table(
+        ["tau", "max abs(H-H0)/abs(H0)", "S rises", "iterations/step"],
+        [list(r) for r in rows] + [["geomint (round-off)", geomint_error, geomint_rises, geomint_iterations]],
+    )
+    return "\n\n".join(
+        [
+            "## Newton tolerance vs energy error",
+            "geomint solves each implicit step to round-off and has no tolerance to loosen; this figure *emulates* a "
+            "loose solve with a small compiled fixed-point iteration of the same Gonzalez discrete field "
+            "(`experiments/compiled.py::fixed_point_gonzalez`, stopped when the update is below tau; the last row is "
+            "geomint itself, whose iterations are Newton's). The energy error follows tau: exactness is only as "
+            "good as "
+            "the solve.",
+            f"![newton tolerance]({name})",
+            table,
+        ]
+    )

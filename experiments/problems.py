@@ -123,15 +123,23 @@ def rigid_body_attractor(system, x0):
 def free_rigid_body():
     """docs/references.md R1: the free rigid body (eps = 0)."""
     system = systems.relaxing_rigid_body(*INERTIA, eps=0.0)
-    return Problem("free_rigid_body", "free rigid body (R1, eps = 0)", system, RIGID_BODY_X0,
-                   exact=lambda t: free_rigid_body_exact(RIGID_BODY_X0, INERTIA, t))
+    return Problem(
+        "free_rigid_body",
+        "free rigid body (R1, eps = 0)",
+        system,
+        RIGID_BODY_X0,
+        exact=lambda t: free_rigid_body_exact(RIGID_BODY_X0, INERTIA, t),
+    )
 
 
 def relaxing_rigid_body(eps):
     """docs/references.md R2 with the given eps."""
     system = systems.relaxing_rigid_body(*INERTIA, eps=eps)
     return Problem(
-        "relaxing_rigid_body", f"relaxing rigid body (R2, eps = {eps:g})", system, RIGID_BODY_X0,
+        "relaxing_rigid_body",
+        f"relaxing rigid body (R2, eps = {eps:g})",
+        system,
+        RIGID_BODY_X0,
         attractor=rigid_body_attractor(system, RIGID_BODY_X0),
     )
 
@@ -140,15 +148,22 @@ def quartic_rigid_body(eps):
     """The catalogue's non-quadratic rigid body (k = 0.5) from the R1 state."""
     system = systems.quartic_rigid_body(*INERTIA, k=QUARTIC_K, eps=eps)
     return Problem(
-        "quartic_rigid_body", f"quartic rigid body (k = {QUARTIC_K:g}, eps = {eps:g})", system, RIGID_BODY_X0,
+        "quartic_rigid_body",
+        f"quartic rigid body (k = {QUARTIC_K:g}, eps = {eps:g})",
+        system,
+        RIGID_BODY_X0,
         attractor=rigid_body_attractor(system, RIGID_BODY_X0),
     )
 
 
 def oscillator(eps, coefficient=1.0):
-    """docs/references.md R5 with ``S = coefficient * z^2``; the attractor is the equator, tracked by the exact solution."""
+    """docs/references.md R5 with ``S = coefficient * z^2``; the attractor is the equator, tracked by the exact
+    solution."""
     system = systems.dissipative_oscillator((0.0, 0.0, coefficient), eps=eps)
     return Problem(
-        "dissipative_oscillator", f"dissipative oscillator (S = z^2, eps = {eps:g})", system, OSCILLATOR_X0,
+        "dissipative_oscillator",
+        f"dissipative oscillator (S = z^2, eps = {eps:g})",
+        system,
+        OSCILLATOR_X0,
         exact=lambda t: oscillator_exact(OSCILLATOR_X0, coefficient, eps, t),
     )

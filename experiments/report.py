@@ -65,13 +65,25 @@ def machine():
     except (OSError, StopIteration):
         pass
     try:
-        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                                cwd=Path(__file__).parent, check=False).stdout.strip()
+        commit = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"],
+            capture_output=True,
+            text=True,
+            cwd=Path(__file__).parent,
+            check=False,
+        ).stdout.strip()
     except OSError:
         commit = ""
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     return {
-        "cpu": cpu, "cores": os.cpu_count(), "os": platform.platform(), "load (1 min, at start)": f"{load:.2f}",
-        "python": sys.version.split()[0], "numpy": numpy.__version__, "scipy": scipy.__version__,
-        "numba": numba.__version__, "matplotlib": mpl.__version__, "geomint": f"{geomint.__version__} ({commit})",
+        "cpu": cpu,
+        "cores": os.cpu_count(),
+        "os": platform.platform(),
+        "load (1 min, at start)": f"{load:.2f}",
+        "python": sys.version.split()[0],
+        "numpy": numpy.__version__,
+        "scipy": scipy.__version__,
+        "numba": numba.__version__,
+        "matplotlib": mpl.__version__,
+        "geomint": f"{geomint.__version__} ({commit})",
     }

@@ -38,8 +38,9 @@ def not_applicable(method, system, x0, h=1e-3):
 def scipy_result(system, x0, t_span, method, rtol, rhs=None, **options):
     """``solve_ivp`` on the system's field (rtol, atol = ``ATOL_FRACTION`` rtol): the raw ``OdeResult``."""
     rhs = scipy_rhs(system) if rhs is None else rhs
-    return solve_ivp(rhs, t_span, np.asarray(x0, dtype=np.float64), method=method, rtol=rtol,
-                     atol=ATOL_FRACTION * rtol, **options)
+    return solve_ivp(
+        rhs, t_span, np.asarray(x0, dtype=np.float64), method=method, rtol=rtol, atol=ATOL_FRACTION * rtol, **options
+    )
 
 
 def scipy_solution(system, x0, t_span, method, rtol, rhs=None, result=None, **options):
@@ -50,9 +51,18 @@ def scipy_solution(system, x0, t_span, method, rtol, rhs=None, result=None, **op
     result = scipy_result(system, x0, t_span, method, rtol, rhs, **options) if result is None else result
     X = np.ascontiguousarray(result.y.T)
     return geomint.Solution(
-        t=result.t, x=X, H=system.H(X), S=system.S(X), success=bool(result.success), status=int(result.status),
-        message=result.message, failed_step=None, n_steps=int(result.t.size - 1), n_newton=int(getattr(result, "nlu", 0)),
-        nfev=int(result.nfev), method=f"{method} rtol={rtol:g}",
+        t=result.t,
+        x=X,
+        H=system.H(X),
+        S=system.S(X),
+        success=bool(result.success),
+        status=int(result.status),
+        message=result.message,
+        failed_step=None,
+        n_steps=int(result.t.size - 1),
+        n_newton=int(getattr(result, "nlu", 0)),
+        nfev=int(result.nfev),
+        method=f"{method} rtol={rtol:g}",
     )
 
 
@@ -62,17 +72,31 @@ def lsoda_result(rhs, x0, t_eval, rtol, atol=None):
     benchmark extra (``pip install geomint[bench]``)."""
     import numbalsoda
 
-    return numbalsoda.lsoda(rhs.address, np.asarray(x0, dtype=np.float64), np.asarray(t_eval, dtype=np.float64),
-                            rtol=rtol, atol=ATOL_FRACTION * rtol if atol is None else atol)
+    return numbalsoda.lsoda(
+        rhs.address,
+        np.asarray(x0, dtype=np.float64),
+        np.asarray(t_eval, dtype=np.float64),
+        rtol=rtol,
+        atol=ATOL_FRACTION * rtol if atol is None else atol,
+    )
 
 
 def lsoda_solution(system, t_eval, rtol, result):
     """``lsoda_result``'s ``result`` as a ``geomint.Solution`` (numbalsoda does not count field evaluations: 0)."""
     X, success = result
     return geomint.Solution(
-        t=np.asarray(t_eval, dtype=np.float64), x=X, H=system.H(X), S=system.S(X), success=bool(success),
-        status=0 if success else -1, message="" if success else "numbalsoda reported failure", failed_step=None,
-        n_steps=len(t_eval) - 1, n_newton=0, nfev=0, method=f"numbalsoda LSODA rtol={rtol:g}",
+        t=np.asarray(t_eval, dtype=np.float64),
+        x=X,
+        H=system.H(X),
+        S=system.S(X),
+        success=bool(success),
+        status=0 if success else -1,
+        message="" if success else "numbalsoda reported failure",
+        failed_step=None,
+        n_steps=len(t_eval) - 1,
+        n_newton=0,
+        nfev=0,
+        method=f"numbalsoda LSODA rtol={rtol:g}",
     )
 
 

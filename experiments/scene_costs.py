@@ -24,12 +24,21 @@ import time
 
 import geomint
 
-RIGID = dict(system="relaxing_rigid_body", parameters={"a": 0.5, "b": 1.0, "c": 1.5},
-             points=[[0.4535961214255773, 0.0, 0.8912073600614354]], record=(), every="final", figures=())
+RIGID = dict(
+    system="relaxing_rigid_body",
+    parameters={"a": 0.5, "b": 1.0, "c": 1.5},
+    points=[[0.4535961214255773, 0.0, 0.8912073600614354]],
+    record=(),
+    every="final",
+    figures=(),
+)
 # eps small enough that the body does not relax within the run (a relaxed state makes Newton trivial)
 EPS = 1e-4
-EFFECTS = {"full field": dict(eps=EPS), "Hamiltonian only": dict(eps=0.0),
-           "dissipation only": dict(eps=EPS, hamiltonian=False)}
+EFFECTS = {
+    "full field": dict(eps=EPS),
+    "Hamiltonian only": dict(eps=0.0),
+    "dissipation only": dict(eps=EPS, hamiltonian=False),
+}
 
 
 def _interleaved(runs, repeats):
@@ -68,8 +77,10 @@ def effects_table(steps, repeats):
         rows = _interleaved(runs, repeats)
         full = rows["full field"][0]
         for label, (wall, result) in rows.items():
-            print(f"| {method} | {label} | {wall:.4f} | {1e9 * wall / steps:.0f} | {wall / full:.3f} | "
-                  f"{result.solutions[0].n_newton / steps:.2f} |")
+            print(
+                f"| {method} | {label} | {wall:.4f} | {1e9 * wall / steps:.0f} | {wall / full:.3f} | "
+                f"{result.solutions[0].n_newton / steps:.2f} |"
+            )
     print()
 
 
@@ -97,11 +108,15 @@ def progress_cost(steps, repeats):
     one_step = statistics.median(_timed(lambda: geomint.solve(system, x0, (0.0, 0.01), 0.01)) for _ in range(200))
     chunks = -(-steps // 100_000)
     print(f"## Progress bar: {steps} Gonzalez steps, median of {repeats}, runs interleaved\n")
-    print(f"without: {plain:.4f} s, with tqdm updated every 100 000 steps: {barred:.4f} s, "
-          f"ratio {barred / plain:.4f} ({100 * (barred / plain - 1):+.2f} %)")
-    print(f"bound from the parts: a whole 1-step solve (validation, allocation, kernel call) takes "
-          f"{1e6 * one_step:.0f} us; {chunks} chunks cost at most {chunks * one_step:.4f} s = "
-          f"{100 * chunks * one_step / plain:.3f} % of the run\n")
+    print(
+        f"without: {plain:.4f} s, with tqdm updated every 100 000 steps: {barred:.4f} s, "
+        f"ratio {barred / plain:.4f} ({100 * (barred / plain - 1):+.2f} %)"
+    )
+    print(
+        f"bound from the parts: a whole 1-step solve (validation, allocation, kernel call) takes "
+        f"{1e6 * one_step:.0f} us; {chunks} chunks cost at most {chunks * one_step:.4f} s = "
+        f"{100 * chunks * one_step / plain:.3f} % of the run\n"
+    )
 
 
 def _timed(fn):
@@ -128,8 +143,13 @@ def peak_rss():
     print("|---|---|---|---|")
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([os.getcwd(), os.environ.get("PYTHONPATH", "")])}
     for steps in (10, 10**6, 10**7):
-        done = subprocess.run([sys.executable, "-c", _RSS.replace("{steps}", str(steps))],
-                              capture_output=True, text=True, env=env, check=True)
+        done = subprocess.run(
+            [sys.executable, "-c", _RSS.replace("{steps}", str(steps))],
+            capture_output=True,
+            text=True,
+            env=env,
+            check=True,
+        )
         rss_kib, wall, n_steps, rows = done.stdout.split()
         print(f"| {int(n_steps):,} | {rows} | {int(rss_kib) / 1024:.1f} | {float(wall):.2f} |")
     print()

@@ -47,8 +47,12 @@ class SweepSettings:
     sweep_budget: float
 
 
-FULL = SweepSettings(20.0, tuple(int(n) for n in np.geomspace(20, 2e5, 17).round()), tuple(range(3, 14)), 5, 2.0, 8.0, 15.0)
-QUICK = SweepSettings(20.0, tuple(int(n) for n in np.geomspace(20, 2e4, 7).round()), tuple(range(3, 14, 2)), 3, 0.5, 1.0, 3.0)
+FULL = SweepSettings(
+    20.0, tuple(int(n) for n in np.geomspace(20, 2e5, 17).round()), tuple(range(3, 14)), 5, 2.0, 8.0, 15.0
+)
+QUICK = SweepSettings(
+    20.0, tuple(int(n) for n in np.geomspace(20, 2e4, 7).round()), tuple(range(3, 14, 2)), 3, 0.5, 1.0, 3.0
+)
 
 
 def wp_problems():
@@ -57,6 +61,7 @@ def wp_problems():
 
 def reference(problem, t_end):
     """``(x_ref(t) -> (len(t), 3), uncertainty, note)``: the trajectory errors are measured against."""
+
     def dense(rtol):
         sol = scipy_result(problem.system, problem.x0, (0.0, t_end), "DOP853", rtol, dense_output=True).sol
         return lambda t: sol(t).T
@@ -66,10 +71,16 @@ def reference(problem, t_end):
     spread = float(np.max(np.linalg.norm(looser(grid) - tight(grid), axis=1)))
     if problem.exact is not None:
         off = float(np.max(np.linalg.norm(problem.exact(grid) - tight(grid), axis=1)))
-        return problem.exact, spread, (f"closed form; max over t of |closed form - DOP853(rtol={TIGHTEST_RTOL:g})| = "
-                                       f"{off:.2g}")
-    return tight, spread, (f"DOP853 rtol={TIGHTEST_RTOL:g}, dense output; max over t of |ref - DOP853(rtol=1e-13)| "
-                           f"= {spread:.2g}")
+        return (
+            problem.exact,
+            spread,
+            (f"closed form; max over t of |closed form - DOP853(rtol={TIGHTEST_RTOL:g})| = {off:.2g}"),
+        )
+    return (
+        tight,
+        spread,
+        (f"DOP853 rtol={TIGHTEST_RTOL:g}, dense output; max over t of |ref - DOP853(rtol=1e-13)| = {spread:.2g}"),
+    )
 
 
 #: the tightest tolerance of the adaptive geomint sweeps: at 1e-12 adaptive Gonzalez on the quartic body
@@ -80,17 +91,27 @@ ADAPTIVE_TIGHTEST = 11
 
 def geomint_curve(problem, method, settings, x_ref, adaptive=False):
     steps = None if adaptive else settings.steps
-    tolerances = [10.0 ** -k for k in settings.exponents if k <= ADAPTIVE_TIGHTEST] if adaptive else None
-    return work_precision(problem.system, problem.x0, settings.t_end, method.integrator, steps, x_ref,
-                          settings.repeats, settings.point_budget, settings.sweep_budget, label=method.label,
-                          tolerances=tolerances)
+    tolerances = [10.0**-k for k in settings.exponents if k <= ADAPTIVE_TIGHTEST] if adaptive else None
+    return work_precision(
+        problem.system,
+        problem.x0,
+        settings.t_end,
+        method.integrator,
+        steps,
+        x_ref,
+        settings.repeats,
+        settings.point_budget,
+        settings.sweep_budget,
+        label=method.label,
+        tolerances=tolerances,
+    )
 
 
 def tolerance_curve(label, settings, solve_at, x_ref):
     """A sweep over rtol = 10^-k: ``solve_at(rtol) -> (timed call, wrap(result) -> Solution)``."""
     curve = Curve(label, "scipy")
     for exponent in settings.exponents:
-        rtol = 10.0 ** -exponent
+        rtol = 10.0**-exponent
         call, wrap = solve_at(rtol)
         seconds, result = median_time(call, settings.repeats, settings.point_budget)
         solution = wrap(result)
@@ -106,9 +127,15 @@ def tolerance_curve(label, settings, solve_at, x_ref):
 
 def scipy_curve(problem, name, settings, x_ref, rhs):
     span = (0.0, settings.t_end)
-    return tolerance_curve(name, settings, lambda rtol: (
-        lambda: scipy_result(problem.system, problem.x0, span, name, rtol, rhs=rhs),
-        lambda result: scipy_solution(problem.system, problem.x0, span, name, rtol, result=result)), x_ref)
+    return tolerance_curve(
+        name,
+        settings,
+        lambda rtol: (
+            lambda: scipy_result(problem.system, problem.x0, span, name, rtol, rhs=rhs),
+            lambda result: scipy_solution(problem.system, problem.x0, span, name, rtol, result=result),
+        ),
+        x_ref,
+    )
 
 
 def lsoda_curve(problem, settings, x_ref):
@@ -118,9 +145,15 @@ def lsoda_curve(problem, settings, x_ref):
     except ImportError:
         return None
     t_eval = np.linspace(0.0, settings.t_end, GRID)
-    return tolerance_curve("numbalsoda LSODA", settings, lambda rtol: (
-        lambda: lsoda_result(rhs, problem.x0, t_eval, rtol),
-        lambda result: lsoda_solution(problem.system, t_eval, rtol, result)), x_ref)
+    return tolerance_curve(
+        "numbalsoda LSODA",
+        settings,
+        lambda rtol: (
+            lambda: lsoda_result(rhs, problem.x0, t_eval, rtol),
+            lambda result: lsoda_solution(problem.system, t_eval, rtol, result),
+        ),
+        x_ref,
+    )
 
 
 def cost_table(curves):
@@ -131,15 +164,18 @@ def cost_table(curves):
         row = [curve.label, "yes" if curve.structure_preserving else "no"]
         for target in TARGETS:
             wall = cost_to_reach(curve.wall, curve.error, target)
-            ratios = [wall / cost_to_reach(by_label[b].wall, by_label[b].error, target) if b in by_label else np.nan
-                      for b in (BASELINE_SCIPY, BASELINE_RK4)]
+            ratios = [
+                wall / cost_to_reach(by_label[b].wall, by_label[b].error, target) if b in by_label else np.nan
+                for b in (BASELINE_SCIPY, BASELINE_RK4)
+            ]
             row += [1e3 * wall, *ratios, cost_to_reach(curve.nfev, curve.error, target)]
         rows.append(row)
     return rows
 
 
 COST_HEADERS = ["method", "H exact & S monotone"] + [
-    f"{label} @{target:g}" for target in TARGETS for label in ("ms", "/DOP853", "/RK4", "field evals")]
+    f"{label} @{target:g}" for target in TARGETS for label in ("ms", "/DOP853", "/RK4", "field evals")
+]
 
 
 def fastest_structure_preserving(curves, target=1e-8):
@@ -149,7 +185,12 @@ def fastest_structure_preserving(curves, target=1e-8):
     if not candidates:
         return None
     best = min(candidates, key=costs.get)
-    return best, costs[best], costs.get(BASELINE_SCIPY, np.nan) / costs[best], costs[best] / costs.get(BASELINE_RK4, np.nan)
+    return (
+        best,
+        costs[best],
+        costs.get(BASELINE_SCIPY, np.nan) / costs[best],
+        costs[best] / costs.get(BASELINE_RK4, np.nan),
+    )
 
 
 def plot(problem, curves, uncertainty, axes):
@@ -161,8 +202,11 @@ def plot(problem, curves, uncertainty, axes):
 
 def run_problem(problem, settings, methods, log=print):
     x_ref, uncertainty, note = reference(problem, settings.t_end)
-    curves = [geomint_curve(problem, m, settings, x_ref) for m in methods
-              if not_applicable(m.integrator, problem.system, problem.x0) is None]
+    curves = [
+        geomint_curve(problem, m, settings, x_ref)
+        for m in methods
+        if not_applicable(m.integrator, problem.system, problem.x0) is None
+    ]
     log(f"  {problem.name}: geomint fixed-step sweeps done")
     curves += [geomint_curve(problem, m, settings, x_ref, adaptive=True) for m in adaptive_methods()]
     log(f"  {problem.name}: geomint adaptive sweeps done")
@@ -184,22 +228,29 @@ def _has_numbalsoda():
 
 
 def main(quick=False, out=None, log=print):
-    """Run the work-precision sweeps; write ``work_precision_<problem>.png``; return the markdown section and targets."""
+    """Run the work-precision sweeps; write ``work_precision_<problem>.png``; return the markdown section and
+    targets."""
     settings = QUICK if quick else FULL
     methods = geomint_methods()
-    parts = ["## Work-precision: what accuracy costs",
-             f"Error along the trajectory up to T = {settings.t_end:g} (the largest distance to the reference over "
-             "the returned states: every step of adaptive and scipy runs, ~1000 states of a fixed-step run, "
-             f"numbalsoda's interpolant at {GRID} equally spaced times) against median wall time ({settings.repeats} "
-             "repeats after a warm-up run, so compilation is excluded; the solver call only) and against field "
-             f"evaluations (numbalsoda does not count them). geomint: fixed steps h = T/n, n in {list(settings.steps)}, "
-             f"and adaptive steps (rows \"adaptive\") with rtol = atol = 10^-k, k <= {ADAPTIVE_TIGHTEST}; scipy and "
-             "numbalsoda: rtol = 10^-k, "
-             f"atol = 1e-3 rtol; k in {list(settings.exponents)}. A geomint sweep stops refining after "
-             f"{settings.sweep_budget:g} s. The dotted line is the reference's uncertainty. Ratios are to the same "
-             f"run's {BASELINE_SCIPY} and {BASELINE_RK4} (>1: slower)." + (
-                 "" if _has_numbalsoda() else " numbalsoda is not installed in this run (`pip install "
-                 "geomint[bench]`, which needs a Fortran compiler to build), so its curves are missing.")]
+    parts = [
+        "## Work-precision: what accuracy costs",
+        f"Error along the trajectory up to T = {settings.t_end:g} (the largest distance to the reference over "
+        "the returned states: every step of adaptive and scipy runs, ~1000 states of a fixed-step run, "
+        f"numbalsoda's interpolant at {GRID} equally spaced times) against median wall time ({settings.repeats} "
+        "repeats after a warm-up run, so compilation is excluded; the solver call only) and against field "
+        f"evaluations (numbalsoda does not count them). geomint: fixed steps h = T/n, n in {list(settings.steps)}, "
+        f'and adaptive steps (rows "adaptive") with rtol = atol = 10^-k, k <= {ADAPTIVE_TIGHTEST}; scipy and '
+        "numbalsoda: rtol = 10^-k, "
+        f"atol = 1e-3 rtol; k in {list(settings.exponents)}. A geomint sweep stops refining after "
+        f"{settings.sweep_budget:g} s. The dotted line is the reference's uncertainty. Ratios are to the same "
+        f"run's {BASELINE_SCIPY} and {BASELINE_RK4} (>1: slower)."
+        + (
+            ""
+            if _has_numbalsoda()
+            else " numbalsoda is not installed in this run (`pip install "
+            "geomint[bench]`, which needs a Fortran compiler to build), so its curves are missing."
+        ),
+    ]
     targets = {}
     out_kw = {} if out is None else {"out": out}
     for problem in wp_problems():
@@ -209,6 +260,10 @@ def main(quick=False, out=None, log=print):
         fig.legend(*axes[0].get_legend_handles_labels(), loc="center left", bbox_to_anchor=(1.0, 0.5), fontsize=7)
         name = save(fig, f"work_precision_{problem.name}.png", **out_kw)
         targets[problem.name] = fastest_structure_preserving(curves)
-        parts += [f"### {problem.title}", f"Reference: {note}.", f"![work-precision {problem.name}]({name})",
-                  markdown_table(COST_HEADERS, cost_table(curves))]
+        parts += [
+            f"### {problem.title}",
+            f"Reference: {note}.",
+            f"![work-precision {problem.name}]({name})",
+            markdown_table(COST_HEADERS, cost_table(curves)),
+        ]
     return "\n\n".join(parts), targets

@@ -21,9 +21,29 @@ from ._user_errors import UserFunctionError
 from ._version import __version__
 from .analysis import continuation, level_set
 from .integrators import (
-    AVF, RK4, BogackiShampine32, Composition, DampedGonzalez, DormandPrince54, DormandPrince853, Gonzalez,
-    Integrator, ItohAbe, KahanLi6, KahanLi8, Lie, OscillatorRotation, Projected, RigidBodyFlow, RotorSplitting,
-    Strang, Suzuki4, SuzukiUmeno8, SymmetrizedItohAbe, Yoshida4, Yoshida6,
+    AVF,
+    RK4,
+    BogackiShampine32,
+    Composition,
+    DampedGonzalez,
+    DormandPrince54,
+    DormandPrince853,
+    Gonzalez,
+    Integrator,
+    ItohAbe,
+    KahanLi6,
+    KahanLi8,
+    Lie,
+    OscillatorRotation,
+    Projected,
+    RigidBodyFlow,
+    RotorSplitting,
+    Strang,
+    Suzuki4,
+    SuzukiUmeno8,
+    SymmetrizedItohAbe,
+    Yoshida4,
+    Yoshida6,
 )
 from .model.system import MetriplecticSystem
 from .results.solution import AccuracyWarning, Solution, load
@@ -35,8 +55,12 @@ from .scene import Scene, SceneError, SceneResult, run_scene
 from .systems import reference
 
 # the public modules that moved into a layer stay importable under their earlier names
-for _name, _module in (("continuation", continuation), ("level_set", level_set), ("events", events),
-                       ("reference", reference)):
+for _name, _module in (
+    ("continuation", continuation),
+    ("level_set", level_set),
+    ("events", events),
+    ("reference", reference),
+):
     _sys.modules[f"{__name__}.{_name}"] = _module
 # runs about runs moved from diagnostics to studies; reachable where they were
 for _name in ("Curve", "measured_order", "reference_solution", "work_precision"):
@@ -47,10 +71,50 @@ integrators.S_rise_statistics = studies.S_rise_statistics  # pyright: ignore[rep
 del _name, _module
 
 __all__ = [
-    "AVF", "RK4", "AccuracyWarning", "BogackiShampine32", "Composition", "DampedGonzalez", "DormandPrince54",
-    "DormandPrince853", "Ensemble", "Gonzalez", "Integrator", "ItohAbe", "KahanLi6", "KahanLi8", "Lie",
-    "MetriplecticSystem", "OscillatorRotation", "Projected", "RigidBodyFlow", "RotorSplitting", "Scene", "SceneError",
-    "SceneResult", "Solution", "Status", "Strang", "Suzuki4", "SuzukiUmeno8", "SymmetrizedItohAbe", "UserFunctionError",
-    "Yoshida4", "Yoshida6", "__version__", "analysis", "continuation", "diagnostics", "events", "level_set", "load",
-    "reference", "run_scene", "solve", "solve_ensemble", "studies", "sweep", "systems",
+    "AVF",
+    "RK4",
+    "AccuracyWarning",
+    "BogackiShampine32",
+    "Composition",
+    "DampedGonzalez",
+    "DormandPrince54",
+    "DormandPrince853",
+    "Ensemble",
+    "Gonzalez",
+    "Integrator",
+    "ItohAbe",
+    "KahanLi6",
+    "KahanLi8",
+    "Lie",
+    "MetriplecticSystem",
+    "OscillatorRotation",
+    "Projected",
+    "RigidBodyFlow",
+    "RotorSplitting",
+    "Scene",
+    "SceneError",
+    "SceneResult",
+    "Solution",
+    "Status",
+    "Strang",
+    "Suzuki4",
+    "SuzukiUmeno8",
+    "SymmetrizedItohAbe",
+    "UserFunctionError",
+    "Yoshida4",
+    "Yoshida6",
+    "__version__",
+    "analysis",
+    "continuation",
+    "diagnostics",
+    "events",
+    "level_set",
+    "load",
+    "reference",
+    "run_scene",
+    "solve",
+    "solve_ensemble",
+    "studies",
+    "sweep",
+    "systems",
 ]

@@ -94,9 +94,12 @@ class PackageCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheL
 
 def _register():
     if ROOT is None:
-        warnings.warn(f"geomint: no writable folder for numba's cache ({', '.join(map(str, candidates()))}); "
-                      "kernels are compiled in every process. Set GEOMINT_CACHE_DIR to a writable folder.",
-                      RuntimeWarning, stacklevel=3)
+        warnings.warn(
+            f"geomint: no writable folder for numba's cache ({', '.join(map(str, candidates()))}); "
+            "kernels are compiled in every process. Set GEOMINT_CACHE_DIR to a writable folder.",
+            RuntimeWarning,
+            stacklevel=3,
+        )
         return False
     implementation = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # pyright: ignore[reportAttributeAccessIssue]  # renamed in numba 0.61
     locators = implementation._locator_classes

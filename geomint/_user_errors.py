@@ -41,8 +41,11 @@ class UserFunctionError(ValueError):
 def raised_by(error: BaseException, functions: Mapping[str, Any]) -> str | None:
     """The name (a key of ``functions``, a dict of jitted functions) of the function ``error`` was raised in, from
     the frames numba writes into its traceback, or None."""
-    codes = {(fn.py_func.__code__.co_filename, fn.py_func.__name__): name
-             for name, fn in functions.items() if hasattr(fn, "py_func")}
+    codes = {
+        (fn.py_func.__code__.co_filename, fn.py_func.__name__): name
+        for name, fn in functions.items()
+        if hasattr(fn, "py_func")
+    }
     tb, found = error.__traceback__, None
     while tb is not None:
         found = codes.get((tb.tb_frame.f_code.co_filename, tb.tb_frame.f_code.co_name), found)

@@ -26,7 +26,9 @@ def real(name: str, value: object) -> float:
     try:
         return float(value)
     except OverflowError:
-        raise ValueError(f"`{name}` must be finite in float64; got an integer of {len(str(abs(value)))} digits.") from None
+        raise ValueError(
+            f"`{name}` must be finite in float64; got an integer of {len(str(abs(value)))} digits."
+        ) from None
 
 
 def reals(name: str, values: object) -> npt.NDArray[np.float64]:

@@ -32,15 +32,23 @@ from typing import TYPE_CHECKING, TextIO, cast
 
 import numpy as np
 
-from ._version import __version__
 from ._files import atomic
+from ._version import __version__
 from .integrators import RK4, Gonzalez
 from .integrators.data import method_to_data, options_of, short_names
 from .run.arguments import MAX_STEPS
 from .run.solve import solve
 from .run.status import Status
 from .scene import (
-    FIGURES, OBSERVABLES, CheckpointError, SceneError, bundled_scenes, load_scene, run_scene, runs_together, solve_together,
+    FIGURES,
+    OBSERVABLES,
+    CheckpointError,
+    SceneError,
+    bundled_scenes,
+    load_scene,
+    run_scene,
+    runs_together,
+    solve_together,
 )
 from .scene.toml import to_toml, toml_value
 from .systems import CATALOGUE, relaxing_rigid_body
@@ -58,11 +66,14 @@ OK, FAILED, BAD_INPUT, INTERNAL, INTERRUPTED = 0, 1, 2, 3, 130
 
 def _number(kind, minimum, strict, maximum=math.inf):
     """An argparse type: a finite ``kind`` in (minimum, maximum] (``strict``) or [minimum, maximum]."""
+
     def number(text):
         try:
             value = kind(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"must be {'an integer' if kind is int else 'a number'}; got {text!r}")
+            raise argparse.ArgumentTypeError(
+                f"must be {'an integer' if kind is int else 'a number'}; got {text!r}"
+            ) from None
         if not (math.isfinite(value) and (value > minimum if strict else value >= minimum) and value <= maximum):
             bounds = f"{'>' if strict else '>='} {minimum:g}" + (f" and <= {maximum:g}" if maximum < math.inf else "")
             raise argparse.ArgumentTypeError(f"must be finite and {bounds}; got {text}")
@@ -78,7 +89,9 @@ class OutputError(Exception):
 def _parser():
     # (this module's docstring: None only under python -OO, which strips docstrings)
     parser = argparse.ArgumentParser(
-        prog="geomint", description=cast(str, __doc__).split("\n\n")[1], epilog=cast(str, __doc__).split("\n\n")[-1],
+        prog="geomint",
+        description=cast(str, __doc__).split("\n\n")[1],
+        epilog=cast(str, __doc__).split("\n\n")[-1],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"geomint {__version__}")
@@ -90,21 +103,30 @@ def _parser():
     run = commands.add_parser("run", parents=[scene], help="run a scene: .npz data, JSON summary, PNG figures")
     run.add_argument("--out", metavar="DIR", type=Path, help="output folder (default: runs/<scene name>)")
     run.add_argument("--quiet", action="store_true", help="no progress bar and no report on stdout")
-    run.add_argument("--checkpoint-every", metavar="STEPS", type=_number(int, 0, True, MAX_STEPS),
-                     help="keep the run resumable: checkpoint in <out>/<name>.checkpoint/ every STEPS steps "
-                          "(and at Ctrl-C)")
-    run.add_argument("--resume", action="store_true",
-                     help="continue an interrupted run from its checkpoint (same scene, same --out); the results "
-                          "equal an uninterrupted run's bit for bit")
+    run.add_argument(
+        "--checkpoint-every",
+        metavar="STEPS",
+        type=_number(int, 0, True, MAX_STEPS),
+        help="keep the run resumable: checkpoint in <out>/<name>.checkpoint/ every STEPS steps (and at Ctrl-C)",
+    )
+    run.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue an interrupted run from its checkpoint (same scene, same --out); the results "
+        "equal an uninterrupted run's bit for bit",
+    )
     commands.add_parser("show", parents=[scene], help="validate a scene and print it fully resolved")
     commands.add_parser("list", parents=[common], help="catalogue systems, integrators and bundled scenes")
-    drift = commands.add_parser("drift", parents=[common],
-                                help="energy and Casimir drift: Gonzalez vs RK4 (the default)")
-    drift.add_argument("--steps", type=_number(int, 0, True, MAX_STEPS), default=200_000,
-                       help="number of steps (default 200000)")
+    drift = commands.add_parser(
+        "drift", parents=[common], help="energy and Casimir drift: Gonzalez vs RK4 (the default)"
+    )
+    drift.add_argument(
+        "--steps", type=_number(int, 0, True, MAX_STEPS), default=200_000, help="number of steps (default 200000)"
+    )
     drift.add_argument("--h", type=_number(float, 0.0, True), default=0.05, help="step size (default 0.05)")
-    drift.add_argument("--eps", type=_number(float, 0.0, False), default=0.1,
-                       help="perturbation parameter (default 0.1)")
+    drift.add_argument(
+        "--eps", type=_number(float, 0.0, False), default=0.1, help="perturbation parameter (default 0.1)"
+    )
     return parser
 
 
@@ -137,8 +159,14 @@ def drift(steps: int, h: float, eps: float, out: TextIO | None = None) -> int:
     return FAILED if failed else OK
 
 
-def run(scene_name: str, out_dir: str | os.PathLike[str] | None = None, quiet: bool = False, out: TextIO | None = None,
-        checkpoint_every: int | None = None, resume: bool = False) -> int:
+def run(
+    scene_name: str,
+    out_dir: str | os.PathLike[str] | None = None,
+    quiet: bool = False,
+    out: TextIO | None = None,
+    checkpoint_every: int | None = None,
+    resume: bool = False,
+) -> int:
     """``geomint run``: run a scene, write ``<name>.npz``, ``<name>.summary.json`` and figures."""
     out = sys.stdout if out is None else out
     from tqdm import tqdm
@@ -153,8 +181,9 @@ def run(scene_name: str, out_dir: str | os.PathLike[str] | None = None, quiet: b
     folder = out_dir / f"{scene.name}.checkpoint"
     checkpoint = (folder, checkpoint_every) if checkpoint_every is not None or resume else None
     total = scene.steps_per_trajectory * scene.n_trajectories
-    with tqdm(total=total, unit="step", unit_scale=True, disable=quiet, delay=1.0, file=sys.stderr,
-              desc=scene.name) as bar:
+    with tqdm(
+        total=total, unit="step", unit_scale=True, disable=quiet, delay=1.0, file=sys.stderr, desc=scene.name
+    ) as bar:
 
         def prepare(system, method):
             _prepare(system, method, scene.h, quiet, runs_together(scene, checkpoint))
@@ -165,8 +194,12 @@ def run(scene_name: str, out_dir: str | os.PathLike[str] | None = None, quiet: b
         except CheckpointError as exc:
             raise OutputError(f"--resume: {exc}") from None
     with atomic(data) as temporary:
-        np.savez_compressed(temporary, **result.records, x0=np.array([sol.x[0] for sol in result.solutions]),
-                            status=np.array([sol.status for sol in result.solutions]))
+        np.savez_compressed(
+            temporary,
+            **result.records,
+            x0=np.array([sol.x[0] for sol in result.solutions]),
+            status=np.array([sol.status for sol in result.solutions]),
+        )
     summary = result.summary()
     with atomic(summary_path) as temporary:
         temporary.write_text(json.dumps(summary, indent=2) + "\n")
@@ -176,8 +209,11 @@ def run(scene_name: str, out_dir: str | os.PathLike[str] | None = None, quiet: b
     if result.partial:
         resumable = "; resume with --resume" if checkpoint else ""
         cut = " (the last one cut short)" if result.solutions[-1].status == Status.INTERRUPTED else ""
-        print(f"geomint: interrupted: {len(result.solutions)} of {scene.n_trajectories} trajectories written{cut}, "
-              f"marked \"partial\" in {summary_path}{resumable}", file=sys.stderr)
+        print(
+            f"geomint: interrupted: {len(result.solutions)} of {scene.n_trajectories} trajectories written{cut}, "
+            f'marked "partial" in {summary_path}{resumable}',
+            file=sys.stderr,
+        )
         return INTERRUPTED
     if checkpoint:
         shutil.rmtree(folder, ignore_errors=True)
@@ -243,8 +279,12 @@ class _CompilationNotice:
             self.announced = True
             return
         self.announced, self.started = True, time.perf_counter()
-        print(f"{self.lead}not cached yet: compiling them for {self.what} (the first use of a method takes 5-25 s, "
-              "once; the machine code is then cached on disk for later runs)", file=self.stream, flush=True)
+        print(
+            f"{self.lead}not cached yet: compiling them for {self.what} (the first use of a method takes 5-25 s, "
+            "once; the machine code is then cached on disk for later runs)",
+            file=self.stream,
+            flush=True,
+        )
         if getattr(self.stream, "isatty", lambda: False)():
             self._ticker = threading.Thread(target=self._tick, daemon=True)
             self._ticker.start()
@@ -252,8 +292,12 @@ class _CompilationNotice:
     def _tick(self):
         while not self._stop.wait(self._INTERVAL):
             # (started is set by _compiling before it starts this ticker)
-            print(f"\rgeomint: compiling ... {time.perf_counter() - cast(float, self.started):.0f} s", end="",
-                  file=self.stream, flush=True)
+            print(
+                f"\rgeomint: compiling ... {time.perf_counter() - cast(float, self.started):.0f} s",
+                end="",
+                file=self.stream,
+                flush=True,
+            )
 
     def __exit__(self, *exc):
         from numba.core import event
@@ -264,8 +308,11 @@ class _CompilationNotice:
             self._ticker.join()
             print("\r\033[K", end="", file=self.stream)
         if self.announced and self.stream is not None:  # announced with a stream: started set by _compiling
-            print(f"geomint: compiled in {time.perf_counter() - cast(float, self.started):.2f} s", file=self.stream,
-                  flush=True)
+            print(
+                f"geomint: compiled in {time.perf_counter() - cast(float, self.started):.2f} s",
+                file=self.stream,
+                flush=True,
+            )
         return False
 
 
@@ -275,22 +322,30 @@ def _check_output(folder, paths):
         folder.mkdir(parents=True, exist_ok=True)
         tempfile.TemporaryFile(dir=folder).close()
     except OSError as exc:
-        raise OutputError(f"--out {folder}: cannot write there ({exc.strerror or exc}); choose a writable folder "
-                          "with --out DIR.") from None
+        raise OutputError(
+            f"--out {folder}: cannot write there ({exc.strerror or exc}); choose a writable folder with --out DIR."
+        ) from None
     for path in paths:
         if path.exists() and not path.is_file():
-            raise OutputError(f"--out {folder}: {path} exists and is not a file; remove it or choose another "
-                              "--out DIR.")
+            raise OutputError(
+                f"--out {folder}: {path} exists and is not a file; remove it or choose another --out DIR."
+            )
 
 
 def _report(result, summary, paths, out):
     totals = summary["totals"]
     print(result.scene.title or result.scene.name, file=out)
     print(describe(result.scene, result.method), file=out)
-    print(f"{totals['trajectories']} trajectories, {totals['n_steps']} steps, {totals['n_newton']} Newton "
-          f"iterations, {totals['wall_s']:.3g} s; failed: {totals['failed']}", file=out)
-    print(f"max |H - H0|/|H0| = {totals['max_energy_error']:.3g} "
-          f"({totals['max_energy_error'] / np.finfo(float).eps:.1f} ulp); S rises: {totals['S_rises']}", file=out)
+    print(
+        f"{totals['trajectories']} trajectories, {totals['n_steps']} steps, {totals['n_newton']} Newton "
+        f"iterations, {totals['wall_s']:.3g} s; failed: {totals['failed']}",
+        file=out,
+    )
+    print(
+        f"max |H - H0|/|H0| = {totals['max_energy_error']:.3g} "
+        f"({totals['max_energy_error'] / np.finfo(float).eps:.1f} ulp); S rises: {totals['S_rises']}",
+        file=out,
+    )
     for path in paths:
         print(f"wrote {path}", file=out)
 
@@ -298,29 +353,32 @@ def _report(result, summary, paths, out):
 def describe(scene: Scene, method: Integrator) -> str:
     """What a scene runs, as a sentence: the system and its parameters, the effects, the method and its options,
     the step and the span (the run's second line; ε is the dissipation parameter)."""
+
     def assigned(data):
-        return ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {toml_value(v)}"
-                         for k, v in data.items())
+        return ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {toml_value(v)}" for k, v in data.items())
 
     system = scene.system + (" (written as formulas)" if scene.expressions is not None else "")
     if scene.parameters:
         system += f" with {assigned(scene.parameters)}"
-    effects = {(True, True): f"Hamiltonian part and dissipation ε = {scene.eps:g}",
-               (True, False): "Hamiltonian part only (ε = 0)",
-               (False, True): f"dissipation ε = {scene.eps:g} only"}[(scene.hamiltonian, scene.eps > 0)]
+    effects = {
+        (True, True): f"Hamiltonian part and dissipation ε = {scene.eps:g}",
+        (True, False): "Hamiltonian part only (ε = 0)",
+        (False, True): f"dissipation ε = {scene.eps:g} only",
+    }[(scene.hamiltonian, scene.eps > 0)]
     data = method_to_data(method)
     options = {k: v for k, v in data.items() if k != "name"}
     integrator = data["name"] + (f" ({assigned(options)})" if options else "")
-    return (f"{system}: {effects}; integrated with {integrator}, h = {scene.h:g} from t = 0 to "
-            f"{scene.duration:g}.")
+    return f"{system}: {effects}; integrated with {integrator}, h = {scene.h:g} from t = 0 to {scene.duration:g}."
 
 
 def show(scene_name: str, out: TextIO | None = None) -> int:
     """``geomint show``: the scene fully resolved, as TOML."""
     out = sys.stdout if out is None else out
     scene = load_scene(scene_name).resolved()
-    print(f"# {scene.source}, resolved: {scene.n_trajectories} trajectories x {scene.steps_per_trajectory} steps",
-          file=out)
+    print(
+        f"# {scene.source}, resolved: {scene.n_trajectories} trajectories x {scene.steps_per_trajectory} steps",
+        file=out,
+    )
     print(to_toml(scene.to_dict()), file=out)
     print("\n# initial states", file=out)
     for x0 in scene.initial_states():
@@ -356,8 +414,16 @@ def list_all(out: TextIO | None = None) -> int:
 def _traits(method):
     """``order 2, energy-exact, dissipative, symmetric, implicit`` (the traits that hold), for ``list``."""
     order = "exact flow" if method.order == float("inf") else f"order {method.order}"
-    traits = [label for label, on in (("energy-exact", method.energy_exact), ("dissipative", method.dissipative),
-                                      ("symmetric", method.symmetric), ("implicit", method.implicit)) if on]
+    traits = [
+        label
+        for label, on in (
+            ("energy-exact", method.energy_exact),
+            ("dissipative", method.dissipative),
+            ("symmetric", method.symmetric),
+            ("implicit", method.implicit),
+        )
+        if on
+    ]
     if getattr(method, "flows", ("full",)) == ("hamiltonian",):
         traits.append("Hamiltonian sub-flow only (a splitting's hamiltonian_part, or eps = 0)")
     return ", ".join([order, *traits])
@@ -391,12 +457,16 @@ def _one_line(exc):
         return " ".join(str(exc).split())
     if isinstance(exc, OSError):
         return f"{exc.filename or ''}: {exc.strerror or exc}".lstrip(": ")
-    return f"internal error {type(exc).__name__}: {' '.join(str(exc).split())[:300]} (rerun with --traceback and " \
-           "report it)"
+    return (
+        f"internal error {type(exc).__name__}: {' '.join(str(exc).split())[:300]} (rerun with --traceback and "
+        "report it)"
+    )
 
 
 _COMMANDS = {
-    "run": lambda args: run(args.scene, args.out, args.quiet, checkpoint_every=args.checkpoint_every, resume=args.resume),
+    "run": lambda args: run(
+        args.scene, args.out, args.quiet, checkpoint_every=args.checkpoint_every, resume=args.resume
+    ),
     "show": lambda args: show(args.scene),
     "list": lambda args: list_all(),
     "drift": lambda args: drift(args.steps, args.h, args.eps),

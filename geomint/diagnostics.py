@@ -91,8 +91,11 @@ class Windows:
         return np.sqrt(self.edges[:-1] * self.edges[1:])
 
 
-def windowed_drift(sol: Solution, count: int = 20, t_first: float | None = None,
-                   ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+def windowed_drift(
+    sol: Solution,
+    count: int = 20,
+    t_first: float | None = None,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """``(centers, maxima)``: the energy error's maxima over ``count`` log-spaced windows of ``sol.t``.
 
     ``t_first`` (default: the second saved time) is the first window edge
@@ -109,8 +112,13 @@ def windowed_drift(sol: Solution, count: int = 20, t_first: float | None = None,
     return windows.centers, windows.maxima
 
 
-def growth_law(t: npt.NDArray[np.float64], maxima: npt.NDArray[np.float64], t_min: float, floor: float = 1e-17,
-               roundoff: float = ROUNDOFF_ULPS) -> tuple[float, str]:
+def growth_law(
+    t: npt.NDArray[np.float64],
+    maxima: npt.NDArray[np.float64],
+    t_min: float,
+    floor: float = 1e-17,
+    roundoff: float = ROUNDOFF_ULPS,
+) -> tuple[float, str]:
     """Fit ``max |H - H0| ~ C t^p`` over windows with ``t >= t_min``; returns ``(p, law)``.
 
     ``law`` is "flat" (p < 0.25), "sqrt t" (p < 0.75: a random walk of

@@ -31,8 +31,9 @@ if TYPE_CHECKING:
     from .model.system import MetriplecticSystem
 
 
-def reference_solution(system: MetriplecticSystem, x0: npt.ArrayLike, t_end: float, rtol: float = 1e-13,
-                       atol: float = 1e-15) -> npt.NDArray[np.float64]:
+def reference_solution(
+    system: MetriplecticSystem, x0: npt.ArrayLike, t_end: float, rtol: float = 1e-13, atol: float = 1e-15
+) -> npt.NDArray[np.float64]:
     """``x(t_end)`` by scipy's DOP853 at tight tolerances (structure-blind, for error measurements)."""
     from scipy.integrate import solve_ivp
 
@@ -44,9 +45,15 @@ def reference_solution(system: MetriplecticSystem, x0: npt.ArrayLike, t_end: flo
     return result.y[:, -1]
 
 
-def measured_order(system: MetriplecticSystem, method: Integrator | str, x0: npt.ArrayLike, t_end: float,
-                   step_sizes: Sequence[float], reference: npt.ArrayLike | None = None, floor: float = 1e-13,
-                   ) -> tuple[float, list[float]]:
+def measured_order(
+    system: MetriplecticSystem,
+    method: Integrator | str,
+    x0: npt.ArrayLike,
+    t_end: float,
+    step_sizes: Sequence[float],
+    reference: npt.ArrayLike | None = None,
+    floor: float = 1e-13,
+) -> tuple[float, list[float]]:
     """Observed order of ``method`` on ``system`` from ``x0`` to ``t_end``: the slope of the
     relative final-state error against ``h`` (``observed_order``), against ``reference``
     (default: ``reference_solution``).  Returns ``(order, errors)``.
@@ -75,11 +82,21 @@ class Curve:
     setting: list = field(default_factory=list)
 
 
-def work_precision(system: MetriplecticSystem, x0: npt.ArrayLike, t_end: float, method: Integrator | str,
-                   step_counts: Sequence[int] | None,
-                   reference: npt.ArrayLike | Callable[[npt.NDArray[np.float64]], Any], repeats: int = 3,
-                   point_budget: float = 2.0, sweep_budget: float = math.inf, label: str | None = None, *,
-                   tolerances: Sequence[float] | None = None, samples: int = 1000) -> Curve:
+def work_precision(
+    system: MetriplecticSystem,
+    x0: npt.ArrayLike,
+    t_end: float,
+    method: Integrator | str,
+    step_counts: Sequence[int] | None,
+    reference: npt.ArrayLike | Callable[[npt.NDArray[np.float64]], Any],
+    repeats: int = 3,
+    point_budget: float = 2.0,
+    sweep_budget: float = math.inf,
+    label: str | None = None,
+    *,
+    tolerances: Sequence[float] | None = None,
+    samples: int = 1000,
+) -> Curve:
     """Error against cost over a sweep of fixed steps ``h = T / n`` or of tolerances ``rtol = atol``.
 
     Parameters
@@ -110,22 +127,27 @@ def work_precision(system: MetriplecticSystem, x0: npt.ArrayLike, t_end: float, 
     """
     method = resolve(method)
     if (step_counts is None) == (tolerances is None):
-        raise ValueError("work_precision: give exactly one of `step_counts` (fixed steps) and `tolerances` "
-                         f"(adaptive steps); got step_counts={step_counts!r}, tolerances={tolerances!r}.")
+        raise ValueError(
+            "work_precision: give exactly one of `step_counts` (fixed steps) and `tolerances` "
+            f"(adaptive steps); got step_counts={step_counts!r}, tolerances={tolerances!r}."
+        )
     along = callable(reference)
     curve = Curve(label or method.name, "geomint", bool(method.energy_exact and method.dissipative))
 
     def run(setting):
         if tolerances is not None:
-            return solve(system, x0, (0.0, t_end), rtol=setting, atol=setting, method=method,
-                         save_every=1 if along else None)
+            return solve(
+                system, x0, (0.0, t_end), rtol=setting, atol=setting, method=method, save_every=1 if along else None
+            )
         n = round(t_end / setting)
-        return solve(system, x0, (0.0, t_end), setting, method=method,
-                     save_every=max(1, n // samples) if along else None)
+        return solve(
+            system, x0, (0.0, t_end), setting, method=method, save_every=max(1, n // samples) if along else None
+        )
 
     def error(sol):
-        return (error_along(sol, reference) if along  # pyright: ignore[reportArgumentType]  # along: callable
-                else float(np.linalg.norm(sol.x_final - reference)))
+        if along:
+            return error_along(sol, reference)  # pyright: ignore[reportArgumentType]  # along: callable
+        return float(np.linalg.norm(sol.x_final - reference))
 
     settings = tolerances if tolerances is not None else [t_end / n for n in step_counts]  # pyright: ignore[reportOptionalIterable]  # one given
     run(settings[0])  # warm-up: compile
@@ -162,16 +184,37 @@ def S_rise_statistics(system, method, x0, h, n_steps, ulps=16):
     x0 = check_state(x0)
     h, n_steps = float(h), int(n_steps)
     lowered = program_of(method).lower(system)
-    out = _loop.Output(np.empty(3), np.empty((3, 3)), np.empty(3), np.empty(3),
-                       np.zeros(_layout.N_RISE_COUNTERS, dtype=np.int64), np.zeros(1))
+    out = _loop.Output(
+        np.empty(3),
+        np.empty((3, 3)),
+        np.empty(3),
+        np.empty(3),
+        np.zeros(_layout.N_RISE_COUNTERS, dtype=np.int64),
+        np.zeros(1),
+    )
     work, state = new_run_state(lowered, x0)
     counting = _control.Counting(0.0, h, n_steps, h, max(n_steps, 1), float(ulps))
     if n_steps > 0:
-        _loop.run(system.model, system.eps, system.hamiltonian, lowered, counting, state, work, _layout.new_clock(0.0),
-                  np.array([n_steps * h]), n_steps, out)
+        _loop.run(
+            system.model,
+            system.eps,
+            system.hamiltonian,
+            lowered,
+            counting,
+            state,
+            work,
+            _layout.new_clock(0.0),
+            np.array([n_steps * h]),
+            n_steps,
+            out,
+        )
     counters = out.counters
     steps = int(counters[_layout.STEPS])
-    return {"steps": steps, "sub_steps": steps * int(lowered.iopts[_layout.P_GAMMAS] * lowered.iopts[_layout.P_STAGES]),
-            "sub_step_rises": int(counters[_layout.SUB_STEP_RISES]),
-            "full_step_rises": int(counters[_layout.FULL_STEP_RISES]),
-            "safeguard_fired": int(counters[_layout.SAFEGUARD_FIRED]), "status": int(counters[_layout.STATUS])}
+    return {
+        "steps": steps,
+        "sub_steps": steps * int(lowered.iopts[_layout.P_GAMMAS] * lowered.iopts[_layout.P_STAGES]),
+        "sub_step_rises": int(counters[_layout.SUB_STEP_RISES]),
+        "full_step_rises": int(counters[_layout.FULL_STEP_RISES]),
+        "safeguard_fired": int(counters[_layout.SAFEGUARD_FIRED]),
+        "status": int(counters[_layout.STATUS]),
+    }

@@ -23,9 +23,9 @@ from hypothesis import strategies as st
 
 from . import systems as _catalogue
 from .diagnostics import observed_order  # noqa: F401 (re-exported for tests)
-from .studies import measured_order, reference_solution  # noqa: F401 (re-exported for tests)
 from .integrators import INTEGRATORS
 from .run.solve import solve
+from .studies import measured_order, reference_solution  # noqa: F401 (re-exported for tests)
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -85,7 +85,7 @@ def _coefficient(low=0.1, high=3.0):
     return st.floats(low, high, allow_nan=False)
 
 
-def catalogue_systems(eps: st.SearchStrategy[float] = st.floats(0.0, 5.0)) -> st.SearchStrategy[MetriplecticSystem]:
+def catalogue_systems(eps: st.SearchStrategy[float] = st.floats(0.0, 5.0)) -> st.SearchStrategy[MetriplecticSystem]:  # noqa: B008 (a strategy is immutable)
     """Every catalogue system with random parameters and random ``eps``."""
     rigid = st.builds(_catalogue.relaxing_rigid_body, _coefficient(), _coefficient(), _coefficient(), eps=eps)
     quartic = st.builds(
@@ -122,8 +122,9 @@ def structure_preserving_methods() -> list[Integrator]:
 
 
 # -- one step and its invariants ----------------------------------------------------------
-def one_step(system: MetriplecticSystem, method: Integrator | str, x: npt.ArrayLike, h: float,
-             allow_failure: bool = False) -> Vector:
+def one_step(
+    system: MetriplecticSystem, method: Integrator | str, x: npt.ArrayLike, h: float, allow_failure: bool = False
+) -> Vector:
     """``x_{n+1}`` after one step of size ``h`` from ``x``.
 
     A failed step raises ``AssertionError``; with ``allow_failure=True`` it is
@@ -139,8 +140,13 @@ def one_step(system: MetriplecticSystem, method: Integrator | str, x: npt.ArrayL
     return sol.x[-1]
 
 
-def term_scale(value_old: float, value_new: float, gradient: npt.ArrayLike, x: npt.ArrayLike, base: float = 0.0,
-               ) -> float:
+def term_scale(
+    value_old: float,
+    value_new: float,
+    gradient: npt.ArrayLike,
+    x: npt.ArrayLike,
+    base: float = 0.0,
+) -> float:
     """The size of the terms of F at a step: ``max(|F(x)|, |F(x')|, |grad F(x)| |x|, base)``.
 
     Round-off in evaluating F is a few ulps of its largest term; ``|grad F||x|``
@@ -154,7 +160,7 @@ def term_scale(value_old: float, value_new: float, gradient: npt.ArrayLike, x: n
 def origin_terms(system: MetriplecticSystem, name: Literal["H", "S"], x: npt.ArrayLike) -> float:
     """``|F(0)| + sum_i |d_i F(0) x_i|`` for F = ``name`` (``"H"`` or ``"S"``): the constant and linear
     terms of F at x (``H = |x - c|^2 / 2`` written out has terms ~ |c|^2 where H ~ 0)."""
-    origin = system.model.origin[{"H": 0, "S": 4}[name]:][:4]
+    origin = system.model.origin[{"H": 0, "S": 4}[name] :][:4]
     return float(abs(origin[0]) + np.abs(origin[1:]) @ np.abs(np.asarray(x, dtype=float)))
 
 
@@ -172,8 +178,9 @@ def assert_dissipates(system: MetriplecticSystem, x: Vector, x_new: Vector, ulps
     assert S1 - S0 <= tol, f"S rose by {S1 - S0:.3e} > {tol:.3e} ({ulps} ulp) from x = {x.tolist()}"
 
 
-def assert_step_invariants(system: MetriplecticSystem, method: Integrator, x: Vector, h: float, ulps: float = 16,
-                           allow_failure: bool = False) -> Vector:
+def assert_step_invariants(
+    system: MetriplecticSystem, method: Integrator, x: Vector, h: float, ulps: float = 16, allow_failure: bool = False
+) -> Vector:
     """One step from ``x``: H kept to ``ulps`` and S not raised beyond ``ulps`` (as declared).
 
     Checks only what ``method`` declares (``energy_exact``, ``dissipative``);
@@ -185,5 +192,3 @@ def assert_step_invariants(system: MetriplecticSystem, method: Integrator, x: Ve
     if method.dissipative:
         assert_dissipates(system, x, x_new, ulps)
     return x_new
-
-

@@ -15,15 +15,14 @@ import types
 
 import numpy as np
 import pytest
+import zoo
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
+from test_zoo import per_step_violations
 
 import geomint
 from geomint.integrators import tableaux
-
-import zoo
-from test_zoo import per_step_violations
 
 EPS = np.finfo(float).eps
 BODY = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
@@ -31,8 +30,12 @@ M0 = np.array([math.cos(1.1), 0.0, math.sin(1.1)])
 #: one method per error estimate: against RK4 (discrete gradients), the embedded pair under the
 #: projection, step doubling (DampedGonzalez at order 2; the monotone Yoshida4 composition of Gonzalez
 #: steps at order 4, whose tolerance is made proportional)
-ADAPTIVE = [geomint.Gonzalez(), geomint.Projected(geomint.DormandPrince54()), geomint.DampedGonzalez(),
-            geomint.Yoshida4(geomint.Gonzalez(), monotone=True)]
+ADAPTIVE = [
+    geomint.Gonzalez(),
+    geomint.Projected(geomint.DormandPrince54()),
+    geomint.DampedGonzalez(),
+    geomint.Yoshida4(geomint.Gonzalez(), monotone=True),
+]
 
 
 def _ids(method):
@@ -41,8 +44,9 @@ def _ids(method):
 
 def _reference(system, x0, t_end):
     """scipy's DOP853 at rtol 1e-13 with dense output: the reference trajectory."""
-    return solve_ivp(lambda t, y: system.xi(y), (0.0, t_end), x0, method="DOP853", rtol=1e-13, atol=1e-15,
-                     dense_output=True)
+    return solve_ivp(
+        lambda t, y: system.xi(y), (0.0, t_end), x0, method="DOP853", rtol=1e-13, atol=1e-15, dense_output=True
+    )
 
 
 @pytest.mark.parametrize("animal", zoo.everything(), ids=lambda a: a.name)
@@ -62,9 +66,15 @@ def test_every_accepted_adaptive_step_keeps_H_and_does_not_raise_S(animal, metho
     check()
 
 
-@pytest.mark.parametrize("method", [geomint.Projected(geomint.DormandPrince54()),
-                                    geomint.Projected(geomint.DormandPrince853()),
-                                    geomint.Yoshida4(geomint.Gonzalez(), monotone=True)], ids=_ids)
+@pytest.mark.parametrize(
+    "method",
+    [
+        geomint.Projected(geomint.DormandPrince54()),
+        geomint.Projected(geomint.DormandPrince853()),
+        geomint.Yoshida4(geomint.Gonzalez(), monotone=True),
+    ],
+    ids=_ids,
+)
 def test_the_achieved_error_follows_the_tolerance(method):
     """Max error along the trajectory (at every step, against a tight reference) within 10x of rtol over
     about one rotation (T = 10), and falling as rtol falls; H exact and S monotone throughout."""
@@ -208,8 +218,15 @@ def test_event_time_of_the_dissipative_oscillator_against_its_closed_form():
     x0 = [0.6, 0.0, 0.8]
     half = geomint.events.crossing(lambda x: x[2], 0.5, direction=-1.0)
     zero = geomint.events.crossing(lambda x: x[2], 0.0, terminal=True)
-    sol = geomint.solve(osc, x0, (0.0, 5.0), rtol=1e-12, atol=1e-14, events=[half, zero],
-                        method=geomint.Projected(geomint.DormandPrince853()))
+    sol = geomint.solve(
+        osc,
+        x0,
+        (0.0, 5.0),
+        rtol=1e-12,
+        atol=1e-14,
+        events=[half, zero],
+        method=geomint.Projected(geomint.DormandPrince853()),
+    )
     assert sol.status == 1 and sol.success
     assert abs(sol.t_events[0][0] - (math.atanh(0.8) - math.atanh(0.5))) <= 1e-10
     assert abs(sol.t_events[1][0] - math.atanh(0.8)) <= 1e-10
@@ -222,20 +239,24 @@ def test_event_time_of_the_dissipative_oscillator_against_its_closed_form():
 
 def test_events_follow_scipy_semantics():
     """A non-terminal event with each direction, counted against scipy's solve_ivp on the same problem."""
+
     def up(t, x):
         return x[0]
+
     up.direction = 1.0
 
     def down(t, x):
         return x[0]
+
     down.direction = -1.0
 
     def both(t, x):
         return x[1]
 
     sol = geomint.solve(BODY, M0, (0.0, 30.0), rtol=1e-10, atol=1e-12, events=[up, down, both])
-    ref = solve_ivp(lambda t, y: BODY.xi(y), (0.0, 30.0), M0, method="DOP853", rtol=1e-12, atol=1e-14,
-                    events=[up, down, both])
+    ref = solve_ivp(
+        lambda t, y: BODY.xi(y), (0.0, 30.0), M0, method="DOP853", rtol=1e-12, atol=1e-14, events=[up, down, both]
+    )
     for ours, theirs in zip(sol.t_events, ref.t_events):
         assert len(ours) == len(theirs) > 0
         np.testing.assert_allclose(ours, theirs, atol=1e-8)
@@ -245,6 +266,7 @@ def test_events_follow_scipy_semantics():
 def test_a_terminal_event_with_a_count_stops_at_that_occurrence():
     def crossing(t, x):
         return x[1]
+
     crossing.terminal = 3
     sol = geomint.solve(BODY, M0, (0.0, 100.0), events=crossing)
     assert sol.status == 1 and len(sol.t_events[0]) == 3 and sol.t[-1] == sol.t_events[0][-1]
@@ -261,8 +283,9 @@ def test_relaxed_stops_when_the_state_has_settled():
 def test_args_override_the_params_of_the_system():
     osc = geomint.systems.dissipative_oscillator((0.0, 0.0, 1.0), eps=0.3)
     mine = geomint.solve(osc, [0.6, 0.0, 0.8], (0.0, 2.0), 0.01, args=(0.0, 1.0, 0.0))
-    other = geomint.solve(geomint.systems.dissipative_oscillator((0.0, 1.0, 0.0), eps=0.3), [0.6, 0.0, 0.8],
-                          (0.0, 2.0), 0.01)
+    other = geomint.solve(
+        geomint.systems.dissipative_oscillator((0.0, 1.0, 0.0), eps=0.3), [0.6, 0.0, 0.8], (0.0, 2.0), 0.01
+    )
     np.testing.assert_array_equal(mine.x, other.x)
 
 
@@ -283,8 +306,14 @@ def test_backward_is_refused_where_a_projection_keeps_S_from_rising():
 
 
 # -- the tableaux ------------------------------------------------------------------------------------
-@pytest.mark.parametrize("tableau, name", [(tableaux.BOGACKI_SHAMPINE_32, "RK23"), (tableaux.DORMAND_PRINCE_54, "RK45"),
-                                           (tableaux.DORMAND_PRINCE_853, "DOP853")])
+@pytest.mark.parametrize(
+    "tableau, name",
+    [
+        (tableaux.BOGACKI_SHAMPINE_32, "RK23"),
+        (tableaux.DORMAND_PRINCE_54, "RK45"),
+        (tableaux.DORMAND_PRINCE_853, "DOP853"),
+    ],
+)
 def test_the_tableaux_are_scipys(tableau, name):
     from scipy.integrate._ivp import rk
 
@@ -293,8 +322,8 @@ def test_the_tableaux_are_scipys(tableau, name):
     s = len(b)
     A = np.zeros((s, s))
     for i, row in enumerate(a):
-        A[i, :len(row)] = row
-    np.testing.assert_array_equal(A[:, :reference.A.shape[1]], reference.A[:s])
+        A[i, : len(row)] = row
+    np.testing.assert_array_equal(A[:, : reference.A.shape[1]], reference.A[:s])
     np.testing.assert_array_equal(b, reference.B)
     np.testing.assert_array_equal(c, reference.C)
     np.testing.assert_array_equal(e, reference.E5 if name == "DOP853" else reference.E)
@@ -307,26 +336,29 @@ def test_the_tableaux_are_scipys(tableau, name):
 
 
 # -- bad input ----------------------------------------------------------------------------------------
-@pytest.mark.parametrize("kwargs, error, match", [
-    ({"h": 0.1, "rtol": 1e-6}, ValueError, "`rtol` cannot be given"),
-    ({"rtol": 0.0}, ValueError, "`rtol` must be"),
-    ({"rtol": float("nan")}, ValueError, "`rtol` must be"),
-    ({"rtol": "1e-6"}, TypeError, "`rtol` must be a real number"),
-    ({"atol": -1.0}, ValueError, "`atol` must be"),
-    ({"max_step": 0.0}, ValueError, "`max_step` must be > 0"),
-    ({"max_step": -1.0}, ValueError, "`max_step` must be > 0"),
-    ({"first_step": 5.0}, ValueError, "`first_step` must be > 0 and at most"),
-    ({"t_eval": [0.5, 0.2]}, ValueError, "`t_eval` must be strictly increasing"),
-    ({"t_eval": [0.5, 2.0]}, ValueError, "`t_eval` must lie within"),
-    ({"t_eval": []}, ValueError, "`t_eval` must hold"),
-    ({"t_eval": ["a"]}, TypeError, "`t_eval` must be a sequence"),
-    ({"events": 3}, TypeError, "`events` must be"),
-    ({"events": [lambda t, x: 0.0, "x"]}, TypeError, "item 1"),
-    ({"dense_output": "yes"}, TypeError, "`dense_output`"),
-    ({"args": (1.0, 2.0, 3.0, 4.0)}, ValueError, "`args` must have 3 values"),
-    ({"save_every": 10}, ValueError, "`save_every` must be 1 or None with adaptive"),
-    ({"checkpoint": ("x.npz", 10)}, ValueError, "`checkpoint` and `resume`"),
-])
+@pytest.mark.parametrize(
+    "kwargs, error, match",
+    [
+        ({"h": 0.1, "rtol": 1e-6}, ValueError, "`rtol` cannot be given"),
+        ({"rtol": 0.0}, ValueError, "`rtol` must be"),
+        ({"rtol": float("nan")}, ValueError, "`rtol` must be"),
+        ({"rtol": "1e-6"}, TypeError, "`rtol` must be a real number"),
+        ({"atol": -1.0}, ValueError, "`atol` must be"),
+        ({"max_step": 0.0}, ValueError, "`max_step` must be > 0"),
+        ({"max_step": -1.0}, ValueError, "`max_step` must be > 0"),
+        ({"first_step": 5.0}, ValueError, "`first_step` must be > 0 and at most"),
+        ({"t_eval": [0.5, 0.2]}, ValueError, "`t_eval` must be strictly increasing"),
+        ({"t_eval": [0.5, 2.0]}, ValueError, "`t_eval` must lie within"),
+        ({"t_eval": []}, ValueError, "`t_eval` must hold"),
+        ({"t_eval": ["a"]}, TypeError, "`t_eval` must be a sequence"),
+        ({"events": 3}, TypeError, "`events` must be"),
+        ({"events": [lambda t, x: 0.0, "x"]}, TypeError, "item 1"),
+        ({"dense_output": "yes"}, TypeError, "`dense_output`"),
+        ({"args": (1.0, 2.0, 3.0, 4.0)}, ValueError, "`args` must have 3 values"),
+        ({"save_every": 10}, ValueError, "`save_every` must be 1 or None with adaptive"),
+        ({"checkpoint": ("x.npz", 10)}, ValueError, "`checkpoint` and `resume`"),
+    ],
+)
 def test_every_new_keyword_is_validated_by_name(kwargs, error, match):
     kwargs = dict(kwargs)
     h = kwargs.pop("h", None)
@@ -337,15 +369,19 @@ def test_every_new_keyword_is_validated_by_name(kwargs, error, match):
 def test_an_event_that_raises_or_is_not_finite_is_named():
     def bad(t, x):
         return float("nan")
+
     with pytest.raises(ValueError, match=r"`events\[0\]` \(bad\) returned nan"):
         geomint.solve(BODY, M0, (0.0, 1.0), events=bad)
 
     def raising(t, x):
         raise ZeroDivisionError("no")
+
     with pytest.raises(geomint.UserFunctionError, match=r"events\[0\] \(raising\)` raised ZeroDivisionError"):
         geomint.solve(BODY, M0, (0.0, 1.0), events=raising)
     with pytest.raises(ValueError, match="terminal"):
+
         def count(t, x):
             return x[0]
+
         count.terminal = -2
         geomint.solve(BODY, M0, (0.0, 1.0), events=count)

@@ -86,18 +86,33 @@ def _axial_J(x, p):
 
 
 def lorenz_nevir(sigma=10.0, r=28.0):
-    return geomint.MetriplecticSystem(H=_lorenz_H, grad_H=_lorenz_grad_H, S=_lorenz_S, grad_S=_lorenz_grad_S,
-                                      J=_lorenz_J, params=[sigma, r], name="lorenz_nevir")
+    return geomint.MetriplecticSystem(
+        H=_lorenz_H,
+        grad_H=_lorenz_grad_H,
+        S=_lorenz_S,
+        grad_S=_lorenz_grad_S,
+        J=_lorenz_J,
+        params=[sigma, r],
+        name="lorenz_nevir",
+    )
 
 
 def coupled_rigid_body(a=0.5, b=1.0, c=1.5, k=0.4):
-    return geomint.MetriplecticSystem(H=_coupled_H, grad_H=_coupled_grad_H, S=_sphere_S, grad_S=_sphere_grad_S,
-                                      J=_identity_J, params=[a, b, c, k], name="coupled_rigid_body")
+    return geomint.MetriplecticSystem(
+        H=_coupled_H,
+        grad_H=_coupled_grad_H,
+        S=_sphere_S,
+        grad_S=_sphere_grad_S,
+        J=_identity_J,
+        params=[a, b, c, k],
+        name="coupled_rigid_body",
+    )
 
 
 def cosh_system():
-    return geomint.MetriplecticSystem(H=_cosh_H, grad_H=_cosh_grad_H, S=_z_cubed_S, grad_S=_z_cubed_grad_S,
-                                      J=_axial_J, name="cosh")
+    return geomint.MetriplecticSystem(
+        H=_cosh_H, grad_H=_cosh_grad_H, S=_z_cubed_S, grad_S=_z_cubed_grad_S, J=_axial_J, name="cosh"
+    )
 
 
 def _special_points(name, system):
@@ -113,11 +128,15 @@ def _special_points(name, system):
     return np.vstack([f.points if isinstance(f, analysis.EquilibriumCurve) else f.x[None] for f in found])
 
 
-ZOO = {**{name: make() for name, make in CATALOGUE.items()},
-       "degenerate_example_2": geomint.systems.degenerate_example(2),
-       "relaxing_rigid_body_equal": geomint.systems.relaxing_rigid_body(1.5, 1.5, 0.5),
-       "oscillator_double_well": geomint.systems.dissipative_oscillator((0.0, 0.0, -0.5, 0.0, 0.25)),
-       "lorenz_nevir": lorenz_nevir(), "coupled_rigid_body": coupled_rigid_body(), "cosh": cosh_system()}
+ZOO = {
+    **{name: make() for name, make in CATALOGUE.items()},
+    "degenerate_example_2": geomint.systems.degenerate_example(2),
+    "relaxing_rigid_body_equal": geomint.systems.relaxing_rigid_body(1.5, 1.5, 0.5),
+    "oscillator_double_well": geomint.systems.dissipative_oscillator((0.0, 0.0, -0.5, 0.0, 0.25)),
+    "lorenz_nevir": lorenz_nevir(),
+    "coupled_rigid_body": coupled_rigid_body(),
+    "cosh": cosh_system(),
+}
 
 
 @pytest.fixture(scope="module", params=sorted(ZOO))
@@ -149,19 +168,24 @@ def test_prop_11_gradient_part_vanishes_exactly_where_grad_S_is_parallel_or_a_gr
 
 def test_the_proposition_functions_fail_when_S_is_not_a_casimir():
     @numba.njit
-    def H(x, p): return 0.5 * (x[0] ** 2 + x[1] ** 2 + x[2] ** 2)
+    def H(x, p):
+        return 0.5 * (x[0] ** 2 + x[1] ** 2 + x[2] ** 2)
 
     @numba.njit
-    def gH(x, p): return (x[0], x[1], x[2])
+    def gH(x, p):
+        return (x[0], x[1], x[2])
 
     @numba.njit
-    def S(x, p): return x[0] * x[2]
+    def S(x, p):
+        return x[0] * x[2]
 
     @numba.njit
-    def gS(x, p): return (x[2], 0.0, x[0])
+    def gS(x, p):
+        return (x[2], 0.0, x[0])
 
     @numba.njit
-    def J(x, p): return (1.0, 0.0, 0.0)
+    def J(x, p):
+        return (1.0, 0.0, 0.0)
 
     broken = geomint.MetriplecticSystem(H=H, grad_H=gH, S=S, grad_S=gS, J=J, check=False)
     assert not analysis.shared_equilibria_hold(broken, [[1.0, 0.0, 0.0]]).any()  # xi_P = 0 but xi_g != 0
@@ -195,7 +219,8 @@ def _distances(system, starts, x, duration, h):
     return np.linalg.norm(starts - x, axis=1), np.array(finals)
 
 
-def _assert_simulation_agrees(system, H0, x, verdict, duration, center=np.zeros(3), delta=1e-2, h=0.02):
+def _assert_simulation_agrees(system, H0, x, verdict, duration, center=None, delta=1e-2, h=0.02):
+    center = np.zeros(3) if center is None else center
     start, end = _distances(system, _nearby_starts(system, H0, x, center, delta), x, duration, h)
     if verdict == "stable":
         assert np.all(end < 0.1 * start), (x, start, end)
@@ -293,21 +318,27 @@ def test_xi_g_of_the_oscillator_vanishes_on_the_equator_and_at_the_poles():
 def test_explain_names_the_reasons():
     body = geomint.systems.relaxing_rigid_body()
     assert analysis.explain(body, [0.0, 0.0, 1.0]) == (
-        True, ("grad S || grad H",), "Prop. 9/10: regular equilibrium, shared with the Hamiltonian system")
+        True,
+        ("grad S || grad H",),
+        "Prop. 9/10: regular equilibrium, shared with the Hamiltonian system",
+    )
     lorenz = lorenz_nevir()
     assert analysis.explain(lorenz, [3.0, 0.0, 28.0])[1] == ("critical point of H",)
 
 
-@pytest.mark.parametrize("call, message", [
-    (lambda s: analysis.equilibria(s, 0.75, field="xi_x"), r"`field` must be one of xi, xi_P, xi_g; got 'xi_x'"),
-    (lambda s: analysis.equilibria(s, float("nan")), r"`H0` must be finite; got nan"),
-    (lambda s: analysis.equilibria(s, 0.75, n=5), r"`n` must be an integer >= 20; got 5"),
-    (lambda s: analysis.linearise(s, [[1.0, 2.0]]), r"`x` must have shape \(3,\) or \(n, 3\); got shape \(1, 2\)"),
-    (lambda s: analysis.tangent_basis(s, [0.0, 0.0, 0.0]), r"`x` must not be a critical point of H"),
-    (lambda s: analysis.refine(s, [0.6, 0.0, 0.8], -1.0), r"`x0` must lie near a zero of xi on H = -1.0"),
-    (lambda s: analysis.conditions(s, [0.0, 0.0, 1.0], rtol=2.0), r"`rtol` must be a number in \[0, 1\); got 2.0"),
-    (lambda s: analysis.factorise(s, [0.0, 0.0, 0.0]), r"`x` must be a regular point with grad H != 0"),
-])
+@pytest.mark.parametrize(
+    "call, message",
+    [
+        (lambda s: analysis.equilibria(s, 0.75, field="xi_x"), r"`field` must be one of xi, xi_P, xi_g; got 'xi_x'"),
+        (lambda s: analysis.equilibria(s, float("nan")), r"`H0` must be finite; got nan"),
+        (lambda s: analysis.equilibria(s, 0.75, n=5), r"`n` must be an integer >= 20; got 5"),
+        (lambda s: analysis.linearise(s, [[1.0, 2.0]]), r"`x` must have shape \(3,\) or \(n, 3\); got shape \(1, 2\)"),
+        (lambda s: analysis.tangent_basis(s, [0.0, 0.0, 0.0]), r"`x` must not be a critical point of H"),
+        (lambda s: analysis.refine(s, [0.6, 0.0, 0.8], -1.0), r"`x0` must lie near a zero of xi on H = -1.0"),
+        (lambda s: analysis.conditions(s, [0.0, 0.0, 1.0], rtol=2.0), r"`rtol` must be a number in \[0, 1\); got 2.0"),
+        (lambda s: analysis.factorise(s, [0.0, 0.0, 0.0]), r"`x` must be a regular point with grad H != 0"),
+    ],
+)
 def test_bad_input_is_refused_with_the_rule(call, message):
     with pytest.raises(ValueError, match=message):
         call(geomint.systems.relaxing_rigid_body())
@@ -319,8 +350,15 @@ def test_bad_H0_type_is_refused():
 
 
 # -- the factorisation behind "no bifurcation at eps > 0" ----------------------------------------
-@pytest.mark.parametrize("name, H0", [("quartic_rigid_body", 2.0), ("coupled_rigid_body", 1.2),
-                                      ("relaxing_rigid_body", 0.75), ("dissipative_oscillator", 0.5)])
+@pytest.mark.parametrize(
+    "name, H0",
+    [
+        ("quartic_rigid_body", 2.0),
+        ("coupled_rigid_body", 1.2),
+        ("relaxing_rigid_body", 0.75),
+        ("dissipative_oscillator", 0.5),
+    ],
+)
 def test_tangent_jacobian_factorises_and_S_on_the_level_set_decides_stability(name, H0):
     system = ZOO[name]
     expected = {"minimum": "stable", "maximum": "unstable", "saddle": "unstable"}

@@ -28,7 +28,7 @@ def _imports(name, path, top_level_only=False):
     inside a function."""
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     tree = ast.parse(path.read_text(), str(path))
-    for node in (tree.body if top_level_only else ast.walk(tree)):
+    for node in tree.body if top_level_only else ast.walk(tree):
         if isinstance(node, ast.Import):
             for alias in node.names:
                 if alias.name.startswith("geomint"):
@@ -47,11 +47,15 @@ def _imports(name, path, top_level_only=False):
                 yield (submodule if submodule in MODULES else source), node.lineno
 
 
-EDGES = {name: [(t, line) for t, line in _imports(name, path) if t in MODULES and t != name]
-         for name, path in MODULES.items()}
+EDGES = {
+    name: [(t, line) for t, line in _imports(name, path) if t in MODULES and t != name]
+    for name, path in MODULES.items()
+}
 #: the imports that run when a module is imported (not those inside functions, run on first use)
-LOADED = {name: [(t, line) for t, line in _imports(name, path, True) if t in MODULES and t != name]
-          for name, path in MODULES.items()}
+LOADED = {
+    name: [(t, line) for t, line in _imports(name, path, True) if t in MODULES and t != name]
+    for name, path in MODULES.items()
+}
 
 
 def _r3(name):
@@ -64,8 +68,12 @@ def _within(name, *layers):
 
 
 def _offences(allowed, edges=EDGES):
-    return [f"{MODULES[a].relative_to(PACKAGE.parent)}:{line} imports {b}"
-            for a, targets in edges.items() for b, line in targets if not allowed(a, b)]
+    return [
+        f"{MODULES[a].relative_to(PACKAGE.parent)}:{line} imports {b}"
+        for a, targets in edges.items()
+        for b, line in targets
+        if not allowed(a, b)
+    ]
 
 
 def test_no_import_circle_between_modules():
@@ -96,17 +104,25 @@ def test_no_import_circle_between_modules():
     for v in MODULES:
         if v not in index:
             visit(v)
-    where = [[f"{MODULES[a].relative_to(PACKAGE.parent)}:{line} imports {b}" for a in c for b, line in EDGES[a]
-              if b in c] for c in circles]
+    where = [
+        [f"{MODULES[a].relative_to(PACKAGE.parent)}:{line} imports {b}" for a in c for b, line in EDGES[a] if b in c]
+        for c in circles
+    ]
     assert not circles, f"import circles: {where}"
 
 
-@pytest.mark.parametrize(("rule", "allowed"), [
-    ("results never import the run layer", lambda a, b: not (_within(a, "results") and _within(b, "run"))),
-    ("the face (cli, scene, plotting) never imports _kernels",
-     lambda a, b: not (_within(a, "cli", "scene", "plotting") and _within(b, "_kernels"))),
-    ("integrators/ never imports the model", lambda a, b: not (_within(a, "integrators") and _within(b, "model"))),
-], ids=lambda value: value if isinstance(value, str) else "")
+@pytest.mark.parametrize(
+    ("rule", "allowed"),
+    [
+        ("results never import the run layer", lambda a, b: not (_within(a, "results") and _within(b, "run"))),
+        (
+            "the face (cli, scene, plotting) never imports _kernels",
+            lambda a, b: not (_within(a, "cli", "scene", "plotting") and _within(b, "_kernels")),
+        ),
+        ("integrators/ never imports the model", lambda a, b: not (_within(a, "integrators") and _within(b, "model"))),
+    ],
+    ids=lambda value: value if isinstance(value, str) else "",
+)
 def test_layers_import_only_what_they_may(rule, allowed):
     offences = _offences(allowed)
     assert not offences, f"{rule}: {offences}"
@@ -123,4 +139,6 @@ def test_importing_the_core_loads_no_three_dimensional_module():
 def test_the_graph_is_read():
     """The checks above see the package: modules and imports are found (else they could not fail)."""
     assert len(MODULES) > 40 and sum(map(len, EDGES.values())) > 100
-    assert ("geomint.run.solve", 0) not in EDGES["geomint"] and any(t == "geomint.run.solve" for t, _ in EDGES["geomint"])
+    assert ("geomint.run.solve", 0) not in EDGES["geomint"] and any(
+        t == "geomint.run.solve" for t, _ in EDGES["geomint"]
+    )

@@ -10,16 +10,18 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_scene_errors import VALID
 
 from geomint import Gonzalez, Projected, Yoshida4
 from geomint.cli import BAD_INPUT, FAILED, OK, main
 from geomint.integrators.data import short_names
 from geomint.scene import Scene, SceneError, bundled_scenes
-from test_scene_errors import VALID
 
 SHORT = (
-    VALID.replace('title = "test"', 'title = "short relaxing rigid body"').replace("eps = 0.1", "eps = 0.5")
-    .replace("points = [[0.6, 0.0, 0.8]]", "level_set = { H0 = 0.6471, n = 3 }").replace("duration = 0.5", "duration = 2.0")
+    VALID.replace('title = "test"', 'title = "short relaxing rigid body"')
+    .replace("eps = 0.1", "eps = 0.5")
+    .replace("points = [[0.6, 0.0, 0.8]]", "level_set = { H0 = 0.6471, n = 3 }")
+    .replace("duration = 0.5", "duration = 2.0")
     .replace("every = 1", 'record = ["x", "S", "dS_dt"]\nevery = 4')
     .replace("figures = []", 'figures = ["overview", "invariants", "trajectories"]')
 )
@@ -39,12 +41,17 @@ def test_run_writes_data_summary_and_figures(tmp_path, capsys):
     assert "3 trajectories, 120 steps" in report and "S rises: 0" in report
     # the kernels are loaded (or compiled, said so before the wait) before the progress bar starts, and the time
     # it took is said
-    assert re.match(r"geomint: loading the compiled kernels \.\.\. (\d+\.\d\d s\n|not cached yet: compiling them "
-                    r"for gonzalez \(.*\)\ngeomint: compiled in \d+\.\d\d s\n)", captured.err)
+    assert re.match(
+        r"geomint: loading the compiled kernels \.\.\. (\d+\.\d\d s\n|not cached yet: compiling them "
+        r"for gonzalez \(.*\)\ngeomint: compiled in \d+\.\d\d s\n)",
+        captured.err,
+    )
     # the second line says what ran, in words (it was a repr and a dict); machine epsilon is ulp, ε the dissipation
-    assert report.splitlines()[1] == ("relaxing_rigid_body with a = 0.5, b = 1, c = 1.5: Hamiltonian part and "
-                                      "dissipation ε = 0.5; integrated with gonzalez (max_newton_iter = 50, compensated "
-                                      "= true), h = 0.05 from t = 0 to 2.")
+    assert report.splitlines()[1] == (
+        "relaxing_rigid_body with a = 0.5, b = 1, c = 1.5: Hamiltonian part and "
+        "dissipation ε = 0.5; integrated with gonzalez (max_newton_iter = 50, compensated "
+        "= true), h = 0.05 from t = 0 to 2."
+    )
     assert re.search(r"max \|H - H0\|/\|H0\| = \S+ \(\d+\.\d ulp\); S rises: 0", report) and " eps" not in report
     data = np.load(out / "short.npz")
     assert sorted(data.files) == ["S", "dS_dt", "rows", "status", "t", "x", "x0"]
@@ -74,7 +81,9 @@ def test_numerical_failure_exits_1_and_keeps_results(tmp_path, capsys):
     assert "geomint: run failed: x0 = " in capsys.readouterr().err
     summary = json.loads((out / "short.summary.json").read_text())
     assert summary["totals"]["failed"] == 3
-    assert "Step 1 (t = 0 -> 0.05) failed: the Newton iteration did not converge" in summary["trajectories"][0]["message"]
+    assert (
+        "Step 1 (t = 0 -> 0.05) failed: the Newton iteration did not converge" in summary["trajectories"][0]["message"]
+    )
 
 
 @pytest.mark.parametrize("command", ["run", "show"])
@@ -105,8 +114,15 @@ def test_show_prints_the_resolved_scene_as_toml(capsys):
 def test_list_names_systems_integrators_and_scenes(capsys):
     assert main(["list"]) == OK
     text = capsys.readouterr().out
-    for name in ["relaxing_rigid_body", "degenerate_example", "gonzalez", "rk4", "dS_dt", "overview",
-                 *bundled_scenes()]:
+    for name in [
+        "relaxing_rigid_body",
+        "degenerate_example",
+        "gonzalez",
+        "rk4",
+        "dS_dt",
+        "overview",
+        *bundled_scenes(),
+    ]:
         assert f"  {name} " in text
 
 
@@ -119,7 +135,9 @@ def test_console_script_runs_a_bundled_scene(tmp_path):
     """The README's main job, as a user runs it (a fresh process)."""
     done = subprocess.run(
         [sys.executable, "-m", "geomint.cli", "run", "oscillator_s0", "--out", str(tmp_path)],
-        capture_output=True, text=True, cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
         env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])},
     )
     assert done.returncode == OK, done.stderr
@@ -133,11 +151,16 @@ def test_bad_argument_exits_2(capsys):
     assert exit_info.value.code == BAD_INPUT
 
 
-WHOLE_FIELD = sorted(name for name, cls in short_names().items() if getattr(cls, "flows", ("full",)) != ("hamiltonian",))
+WHOLE_FIELD = sorted(
+    name for name, cls in short_names().items() if getattr(cls, "flows", ("full",)) != ("hamiltonian",)
+)
 # a few steps of a scene for each integrator: the composition's base and a splitting's parts named in TOML
-OPTIONS = {"yoshida4": 'base = "symmetrized_itoh_abe"', "suzuki4": 'base = { name = "gonzalez", compensated = false }',
-           "strang": 'hamiltonian_part = "rigid_body_flow"\ngradient_part = "gonzalez"',
-           "lie": 'hamiltonian_part = "rotor_splitting"\ngradient_part = "itoh_abe"'}
+OPTIONS = {
+    "yoshida4": 'base = "symmetrized_itoh_abe"',
+    "suzuki4": 'base = { name = "gonzalez", compensated = false }',
+    "strang": 'hamiltonian_part = "rigid_body_flow"\ngradient_part = "gonzalez"',
+    "lie": 'hamiltonian_part = "rotor_splitting"\ngradient_part = "itoh_abe"',
+}
 
 
 def test_there_are_18_whole_field_integrators():
@@ -148,9 +171,12 @@ def test_there_are_18_whole_field_integrators():
 @pytest.mark.parametrize("method", WHOLE_FIELD)
 def test_every_whole_field_integrator_runs_from_the_command_line(tmp_path, method, capsys):
     """In this process (``main`` is the console entry point; the subprocess path is tested elsewhere)."""
-    text = (SHORT.replace('method = "gonzalez"', f'method = "{method}"\n{OPTIONS.get(method, "")}')
-            .replace("duration = 2.0", "duration = 0.4").replace("n = 3", "n = 2")
-            .replace('figures = ["overview", "invariants", "trajectories"]', 'figures = ["overview"]'))
+    text = (
+        SHORT.replace('method = "gonzalez"', f'method = "{method}"\n{OPTIONS.get(method, "")}')
+        .replace("duration = 2.0", "duration = 0.4")
+        .replace("n = 3", "n = 2")
+        .replace('figures = ["overview", "invariants", "trajectories"]', 'figures = ["overview"]')
+    )
     out = tmp_path / "out"
     assert main(["run", str(_scene(tmp_path, text)), "--out", str(out), "--quiet"]) == OK, capsys.readouterr().err
     summary = json.loads((out / "short.summary.json").read_text())
@@ -162,11 +188,16 @@ def test_every_whole_field_integrator_runs_from_the_command_line(tmp_path, metho
 
 
 def test_show_prints_a_nested_method_that_reads_back(tmp_path, capsys):
-    text = SHORT.replace('method = "gonzalez"', 'method = "yoshida4"\nbase = { name = "gonzalez", max_newton_iter = 9 }')
+    text = SHORT.replace(
+        'method = "gonzalez"', 'method = "yoshida4"\nbase = { name = "gonzalez", max_newton_iter = 9 }'
+    )
     assert main(["show", str(_scene(tmp_path, text))]) == OK
     data = tomllib.loads(capsys.readouterr().out)
-    assert data["integrator"]["method"] == {"name": "yoshida4", "monotone": False, "base": {
-        "name": "gonzalez", "max_newton_iter": 9, "compensated": True}}
+    assert data["integrator"]["method"] == {
+        "name": "yoshida4",
+        "monotone": False,
+        "base": {"name": "gonzalez", "max_newton_iter": 9, "compensated": True},
+    }
     assert Scene.from_dict(data).build_method() == Yoshida4(base=Gonzalez(max_newton_iter=9))
 
 
@@ -176,22 +207,37 @@ def test_a_composition_of_avf_runs_from_a_scene(tmp_path):
 
 
 def test_projected_takes_its_inner_method_as_a_table(tmp_path):
-    text = SHORT.replace('method = "gonzalez"', 'method = { name = "projected", method = "yoshida4", symmetric = true }')
+    text = SHORT.replace(
+        'method = "gonzalez"', 'method = { name = "projected", method = "yoshida4", symmetric = true }'
+    )
     assert Scene.from_toml(_scene(tmp_path, text)).build_method() == Projected(Yoshida4(), symmetric=True)
 
 
-@pytest.mark.parametrize("edit, problem", [
-    ('method = "rigid_body_flow"', r"`integrator.method`: `method` RigidBodyFlow\(\) integrates the Hamiltonian part only"),
-    ('method = "strang"\ngradient_part = "rigid_body_flow"',
-     r"`integrator.method`: `gradient_part` must integrate the gradient flow"),
-    ('method = "yoshida4"\nbase = "itoh_abe"', r"`integrator.method`: `base` must be symmetric and of order 2"),
-    ('method = "yoshida4"\nbase = "euler"', r"`integrator.method.base`: unknown integrator 'euler'; known: avf"),
-    ('method = "yoshida4"\nbase = { name = "avf", nodes = 99 }', r"`integrator.method.base`: `nodes` must be None"),
-    ('method = "strang"\nhamiltonian_part = "yoshida4"', r"`integrator.method`: `hamiltonian_part` must be a one-step"),
-    ('method = "strang"\nhamiltonian_part = "oscillator_rotation"',
-     r"`integrator.method`: `method` OscillatorRotation\(\) applies only to systems that declare exact_flows"),
-    ('method = { name = "yoshida4" }\nbase = "avf"', r"`integrator.base`: give the method's options either"),
-])
+@pytest.mark.parametrize(
+    "edit, problem",
+    [
+        (
+            'method = "rigid_body_flow"',
+            r"`integrator.method`: `method` RigidBodyFlow\(\) integrates the Hamiltonian part only",
+        ),
+        (
+            'method = "strang"\ngradient_part = "rigid_body_flow"',
+            r"`integrator.method`: `gradient_part` must integrate the gradient flow",
+        ),
+        ('method = "yoshida4"\nbase = "itoh_abe"', r"`integrator.method`: `base` must be symmetric and of order 2"),
+        ('method = "yoshida4"\nbase = "euler"', r"`integrator.method.base`: unknown integrator 'euler'; known: avf"),
+        ('method = "yoshida4"\nbase = { name = "avf", nodes = 99 }', r"`integrator.method.base`: `nodes` must be None"),
+        (
+            'method = "strang"\nhamiltonian_part = "yoshida4"',
+            r"`integrator.method`: `hamiltonian_part` must be a one-step",
+        ),
+        (
+            'method = "strang"\nhamiltonian_part = "oscillator_rotation"',
+            r"`integrator.method`: `method` OscillatorRotation\(\) applies only to systems that declare exact_flows",
+        ),
+        ('method = { name = "yoshida4" }\nbase = "avf"', r"`integrator.base`: give the method's options either"),
+    ],
+)
 def test_integrator_errors_are_one_line_with_the_key(tmp_path, capsys, edit, problem):
     path = _scene(tmp_path, SHORT.replace('method = "gonzalez"', edit))
     assert main(["run", str(path), "--out", str(tmp_path / "o")]) == BAD_INPUT
@@ -217,8 +263,12 @@ def test_list_reads_orders_and_traits_from_instances(capsys):
 
 
 def test_a_scene_written_as_formulas_runs_from_the_command_line(tmp_path):
-    done = subprocess.run([sys.executable, "-m", "geomint.cli", "run", "lorenz_nevir", "--out", str(tmp_path),
-                           "--quiet"], capture_output=True, text=True, cwd=tmp_path)
+    done = subprocess.run(
+        [sys.executable, "-m", "geomint.cli", "run", "lorenz_nevir", "--out", str(tmp_path), "--quiet"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
     assert done.returncode == OK, done.stderr
     summary = json.loads((tmp_path / "lorenz_nevir.summary.json").read_text())
     assert summary["scene"]["system"]["H"] == "(y**2 + z**2)/2 - r*z"
@@ -240,8 +290,10 @@ def test_a_misspelt_key_is_named_with_the_nearest_known_key(tmp_path, capsys):
     path = _scene(tmp_path, SHORT.replace("duration = 2.0", "duraton = 2.0"))
     assert main(["run", str(path), "--out", str(tmp_path / "o")]) == BAD_INPUT
     err = capsys.readouterr().err
-    assert err == (f"geomint: error: {path}: `integrator.duraton`: unknown key; `[integrator]` takes duration, h, "
-                   "method and the options of 'gonzalez': compensated, max_newton_iter; did you mean `duration`?\n")
+    assert err == (
+        f"geomint: error: {path}: `integrator.duraton`: unknown key; `[integrator]` takes duration, h, "
+        "method and the options of 'gonzalez': compensated, max_newton_iter; did you mean `duration`?\n"
+    )
     path = _scene(tmp_path, SHORT.replace("[effects]", "[efects]"))
     assert main(["show", str(path)]) == BAD_INPUT
     assert capsys.readouterr().err.endswith("; did you mean `[effects]`?\n")
@@ -262,9 +314,12 @@ def test_the_first_compilation_is_announced_once_before_the_wait(monkeypatch, ca
     monkeypatch.setattr(cli, "solve", compiling_solve)
     cli._prepare(None, Gonzalez(), 0.1, quiet=False)
     err = capsys.readouterr().err
-    assert re.fullmatch(r"geomint: loading the compiled kernels \.\.\. not cached yet: compiling them for gonzalez "
-                        r"\(the first use of a method takes 5-25 s, once; the machine code is then cached on disk for "
-                        r"later runs\)\n<wait>\ngeomint: compiled in \d+\.\d\d s\n", err), err
+    assert re.fullmatch(
+        r"geomint: loading the compiled kernels \.\.\. not cached yet: compiling them for gonzalez "
+        r"\(the first use of a method takes 5-25 s, once; the machine code is then cached on disk for "
+        r"later runs\)\n<wait>\ngeomint: compiled in \d+\.\d\d s\n",
+        err,
+    ), err
     cli._prepare(None, Gonzalez(), 0.1, quiet=True)  # compiles again (new functions), in silence
     assert capsys.readouterr().err == "<wait>\n"
 

@@ -45,9 +45,23 @@ def test_importing_geomint_loads_neither_sympy_nor_matplotlib():
 def test_the_pure_python_lane_passes():
     """``NUMBA_DISABLE_JIT=1`` runs the kernels as Python (debugging, coverage): the fast subset passes."""
     result = subprocess.run(
-        [sys.executable, "-m", "pytest", "-q", "-n", "0", "-m", "nojit", "-p", "no:cacheprovider",
-         os.path.dirname(__file__)],
-        capture_output=True, text=True, timeout=900, env={**os.environ, "NUMBA_DISABLE_JIT": "1"},
+        [
+            sys.executable,
+            "-m",
+            "pytest",
+            "-q",
+            "-n",
+            "0",
+            "-m",
+            "nojit",
+            "-p",
+            "no:cacheprovider",
+            os.path.dirname(__file__),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=900,
+        env={**os.environ, "NUMBA_DISABLE_JIT": "1"},
     )
     print(result.stdout[-2000:])
     assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-2000:]

@@ -25,7 +25,9 @@ def test_rigid_body_poles_turn_from_centres_to_foci_at_zero_and_to_nodes_at_the_
         p, q = others
         expected = 2 * np.sqrt((coefficient - p) * (coefficient - q)) / (coefficient * np.linalg.norm(x) * abs(q - p))
         assert [str(ch).split(" at ")[0] for ch in branch.changes] == [
-            f"neutral/centre -> {verdict}/focus", f"{verdict}/focus -> {verdict}/node"]
+            f"neutral/centre -> {verdict}/focus",
+            f"{verdict}/focus -> {verdict}/node",
+        ]
         assert branch.changes[0].at_zero
         assert branch.changes[1].eps == pytest.approx(expected, rel=1e-6)
         assert branch.verdicts.tolist() == ["neutral"] + [verdict] * 4
@@ -41,9 +43,11 @@ def test_degenerate_example_1_verdicts_are_fixed_as_soon_as_eps_is_positive():
     assert pole.verdicts.tolist() == ["neutral"] + ["unstable"] * 4
     assert all(ch.at_zero for br in result.branches for ch in br.changes)
     # eigenvalues at (r, 0, 0): (-r, -eps r^2) on the unit sphere
-    np.testing.assert_allclose(plus.eigenvalues.real, np.stack([np.minimum(-1.0, -np.array(EPS_VALUES)),
-                                                                np.maximum(-1.0, -np.array(EPS_VALUES))], 1),
-                               atol=1e-6)
+    np.testing.assert_allclose(
+        plus.eigenvalues.real,
+        np.stack([np.minimum(-1.0, -np.array(EPS_VALUES)), np.maximum(-1.0, -np.array(EPS_VALUES))], 1),
+        atol=1e-6,
+    )
 
 
 def test_oscillator_equator_cycle_exponent_is_linear_in_eps():
@@ -54,12 +58,15 @@ def test_oscillator_equator_cycle_exponent_is_linear_in_eps():
     assert len(result.rows()) == 3
 
 
-@pytest.mark.parametrize("eps_values, error, message", [
-    ([1.0], ValueError, r"`eps_values` must be a 1-D sequence of at least 2 values"),
-    ([0.0, 2.0, 1.0], ValueError, r"`eps_values` must be finite, increasing and >= 0; got \[0.0, 2.0, 1.0\]"),
-    ([-1.0, 1.0], ValueError, r"`eps_values` must be finite, increasing and >= 0"),
-    (["a", "b"], TypeError, r"`eps_values` must be a sequence of real numbers"),
-])
+@pytest.mark.parametrize(
+    "eps_values, error, message",
+    [
+        ([1.0], ValueError, r"`eps_values` must be a 1-D sequence of at least 2 values"),
+        ([0.0, 2.0, 1.0], ValueError, r"`eps_values` must be finite, increasing and >= 0; got \[0.0, 2.0, 1.0\]"),
+        ([-1.0, 1.0], ValueError, r"`eps_values` must be finite, increasing and >= 0"),
+        (["a", "b"], TypeError, r"`eps_values` must be a sequence of real numbers"),
+    ],
+)
 def test_bad_eps_values_are_refused(eps_values, error, message):
     with pytest.raises(error, match=message):
         continuation(geomint.systems.relaxing_rigid_body(), 0.75, eps_values)

@@ -48,8 +48,20 @@ def test_windowed_drift_refuses_a_single_state():
 
 def _with_S(S):
     n = len(S)
-    return geomint.Solution(t=np.arange(n, dtype=float), x=np.zeros((n, 3)), H=np.ones(n), S=np.array(S), success=True,
-                            status=0, message="", failed_step=None, n_steps=n - 1, n_newton=0, nfev=0, method="test")
+    return geomint.Solution(
+        t=np.arange(n, dtype=float),
+        x=np.zeros((n, 3)),
+        H=np.ones(n),
+        S=np.array(S),
+        success=True,
+        status=0,
+        message="",
+        failed_step=None,
+        n_steps=n - 1,
+        n_newton=0,
+        nfev=0,
+        method="test",
+    )
 
 
 def test_S_rises_locate_rises_beyond_round_off_only():
@@ -84,12 +96,29 @@ def test_work_precision_errors_fall_with_the_cost_and_cost_to_reach_reads_them()
 def test_work_precision_over_tolerances_measures_the_error_along_the_trajectory():
     """Adaptive runs over rtol = atol; with a callable reference the error is the largest over the returned
     states, so it is at least the error at T; fixed steps save about ``samples`` states."""
-    dense = solve_ivp(lambda t, y: BODY.xi(y), (0.0, 2.0), X0, method="DOP853", rtol=1e-13, atol=1e-15,
-                      dense_output=True).sol
-    along = studies.work_precision(BODY, X0, 2.0, geomint.Projected(geomint.DormandPrince54()), None, lambda t: dense(t).T, repeats=1,
-                                       tolerances=[1e-4, 1e-6, 1e-8])
-    at_T = studies.work_precision(BODY, X0, 2.0, geomint.Projected(geomint.DormandPrince54()), None, dense(2.0), repeats=1,
-                                      tolerances=[1e-4, 1e-6, 1e-8])
+    dense = solve_ivp(
+        lambda t, y: BODY.xi(y), (0.0, 2.0), X0, method="DOP853", rtol=1e-13, atol=1e-15, dense_output=True
+    ).sol
+    along = studies.work_precision(
+        BODY,
+        X0,
+        2.0,
+        geomint.Projected(geomint.DormandPrince54()),
+        None,
+        lambda t: dense(t).T,
+        repeats=1,
+        tolerances=[1e-4, 1e-6, 1e-8],
+    )
+    at_T = studies.work_precision(
+        BODY,
+        X0,
+        2.0,
+        geomint.Projected(geomint.DormandPrince54()),
+        None,
+        dense(2.0),
+        repeats=1,
+        tolerances=[1e-4, 1e-6, 1e-8],
+    )
     assert along.setting == [1e-4, 1e-6, 1e-8] and np.all(np.diff(along.error) < 0)
     assert np.all(np.array(along.error) >= np.array(at_T.error)) and np.any(np.array(along.error) > at_T.error)
     fixed = studies.work_precision(BODY, X0, 2.0, "rk4", [2000], lambda t: dense(t).T, repeats=1, samples=100)

@@ -13,17 +13,36 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import zoo
 
 import geomint
-
-import zoo
 
 DATA = Path(__file__).resolve().parent / "data" / "digests.json"
 
 #: every method by name, and wrapped ones that exercise the composition, projection and splitting engines
-FIXED = ["avf", "damped_gonzalez", "dop853", "gonzalez", "itoh_abe", "kahan_li6", "kahan_li8", "lie",
-         "oscillator_rotation", "projected", "rigid_body_flow", "rk23", "rk4", "rk45", "rotor_splitting", "strang",
-         "suzuki4", "suzuki_umeno8", "symmetrized_itoh_abe", "yoshida4", "yoshida6"]
+FIXED = [
+    "avf",
+    "damped_gonzalez",
+    "dop853",
+    "gonzalez",
+    "itoh_abe",
+    "kahan_li6",
+    "kahan_li8",
+    "lie",
+    "oscillator_rotation",
+    "projected",
+    "rigid_body_flow",
+    "rk23",
+    "rk4",
+    "rk45",
+    "rotor_splitting",
+    "strang",
+    "suzuki4",
+    "suzuki_umeno8",
+    "symmetrized_itoh_abe",
+    "yoshida4",
+    "yoshida6",
+]
 WRAPPED = {
     "Yoshida4(AVF())": lambda: geomint.Yoshida4(geomint.AVF()),
     "Yoshida4(Gonzalez(), monotone=True)": lambda: geomint.Yoshida4(geomint.Gonzalez(), monotone=True),
@@ -33,8 +52,14 @@ WRAPPED = {
     "Strang(RigidBodyFlow(), AVF())": lambda: geomint.Strang(geomint.RigidBodyFlow(), geomint.AVF()),
     "Lie(Gonzalez(), DampedGonzalez())": lambda: geomint.Lie(geomint.Gonzalez(), geomint.DampedGonzalez()),
 }
-ADAPTIVE = ["gonzalez", "rk45", "dop853", "projected", "Yoshida4(Gonzalez(), monotone=True)",
-            "Projected(DormandPrince853())"]
+ADAPTIVE = [
+    "gonzalez",
+    "rk45",
+    "dop853",
+    "projected",
+    "Yoshida4(Gonzalez(), monotone=True)",
+    "Projected(DormandPrince853())",
+]
 
 
 def _method(name):

@@ -9,7 +9,13 @@ import geomint.testing as gt
 from geomint._kernels.discrete_gradient import SWITCH
 
 EPS = np.finfo(float).eps
-DISCRETE_GRADIENTS = [geomint.Gonzalez(), geomint.ItohAbe(), geomint.SymmetrizedItohAbe(), geomint.AVF(), geomint.AVF(nodes=1)]
+DISCRETE_GRADIENTS = [
+    geomint.Gonzalez(),
+    geomint.ItohAbe(),
+    geomint.SymmetrizedItohAbe(),
+    geomint.AVF(),
+    geomint.AVF(nodes=1),
+]
 IDS = [repr(m) for m in DISCRETE_GRADIENTS]
 QUARTIC = geomint.systems.quartic_rigid_body(0.5, 1.0, 1.5, k=0.7)
 

@@ -54,8 +54,14 @@ def test_docstring_examples_run(name):
     assert result.failed == 0, f"{result.failed} of {result.attempted} docstring examples failed in {name}"
 
 
-RUNNABLE_PAGES = ["getting-started.md", "coming-from-scipy.md", "guides/own-system.md", "guides/analysis.md",
-                  "guides/ensembles.md", "../README.md"]
+RUNNABLE_PAGES = [
+    "getting-started.md",
+    "coming-from-scipy.md",
+    "guides/own-system.md",
+    "guides/analysis.md",
+    "guides/ensembles.md",
+    "../README.md",
+]
 
 
 @pytest.mark.parametrize("page", RUNNABLE_PAGES)

@@ -24,13 +24,23 @@ def test_kernel_modules_import_each_other_without_a_cycle():
     graph = {}
     for path in KERNELS.glob("*.py"):
         tree = ast.parse(path.read_text())
-        graph[path.stem] = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.level == 1
-                            and node.module} | {alias.name for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
-                                                and node.level == 1 and node.module is None for alias in node.names}
+        graph[path.stem] = {
+            node.module
+            for node in ast.walk(tree)
+            if isinstance(node, ast.ImportFrom) and node.level == 1 and node.module
+        } | {
+            alias.name
+            for node in ast.walk(tree)
+            if isinstance(node, ast.ImportFrom) and node.level == 1 and node.module is None
+            for alias in node.names
+        }
     order, done = [], set()
     while len(done) < len(graph):
         ready = [m for m in graph if m not in done and graph[m] <= done | {m}]
-        assert ready, f"import cycle among {sorted(set(graph) - done)}: {({m: sorted(graph[m]) for m in graph if m not in done})}"
+        assert ready, (
+            f"import cycle among {sorted(set(graph) - done)}: "
+            f"{ ({m: sorted(graph[m]) for m in graph if m not in done}) }"
+        )
         done.update(ready)
         order += sorted(ready)
     order.remove("__init__")
@@ -60,8 +70,13 @@ def test_a_run_compiles_only_the_steps_its_method_uses(tmp_path):
     seen).  A Gonzalez run compiles no composition, only Gonzalez's discrete field, no damping factor; a
     Yoshida4(Gonzalez()) run then adds the composition but still neither the discrete field of integer codes
     (the other discrete gradients), nor RK4, nor the exact flows."""
-    out = subprocess.run([sys.executable, "-c", COMPILED], capture_output=True, text=True, timeout=900,
-                         env={**os.environ, "GEOMINT_CACHE_DIR": str(tmp_path)})
+    out = subprocess.run(
+        [sys.executable, "-c", COMPILED],
+        capture_output=True,
+        text=True,
+        timeout=900,
+        env={**os.environ, "GEOMINT_CACHE_DIR": str(tmp_path)},
+    )
     assert out.returncode == 0, out.stderr
     gonzalez, yoshida = ([int(n) for n in line.split()] for line in out.stdout.splitlines())
     assert gonzalez == [0, 0, 1, 0, 0, 0, 0], out.stdout
@@ -71,10 +86,16 @@ def test_a_run_compiles_only_the_steps_its_method_uses(tmp_path):
 STEPS = [0.2, 0.1, 0.05, 0.025, 0.0125]
 
 
-@pytest.mark.parametrize("method", [
-    geomint.Yoshida4(geomint.AVF()), geomint.Projected(geomint.AVF()), geomint.Strang(geomint.Gonzalez(), geomint.AVF()),
-    geomint.Strang(geomint.RigidBodyFlow(), geomint.AVF()),
-], ids=repr)
+@pytest.mark.parametrize(
+    "method",
+    [
+        geomint.Yoshida4(geomint.AVF()),
+        geomint.Projected(geomint.AVF()),
+        geomint.Strang(geomint.Gonzalez(), geomint.AVF()),
+        geomint.Strang(geomint.RigidBodyFlow(), geomint.AVF()),
+    ],
+    ids=repr,
+)
 def test_any_method_is_a_stage_and_keeps_its_declared_order(method):
     """AVF (a method with coefficients of its own) composes, projects and splits, at the declared order."""
     body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.5)
@@ -111,8 +132,9 @@ def _m(m, p):
 
 
 def test_a_users_own_rigid_body_declares_and_runs_its_exact_flow():
-    body = geomint.MetriplecticSystem(H=_H, grad_H=_grad_H, S=_S, grad_S=_m, J=_m, eps=0.2,
-                                      exact_flows={"rigid_body_flow": (0.3, 0.9, 2.0)})
+    body = geomint.MetriplecticSystem(
+        H=_H, grad_H=_grad_H, S=_S, grad_S=_m, J=_m, eps=0.2, exact_flows={"rigid_body_flow": (0.3, 0.9, 2.0)}
+    )
     sol = geomint.solve(body, [0.6, 0.5, 0.4], (0.0, 50.0), 0.1, method=geomint.Strang(geomint.RigidBodyFlow()))
     assert sol.success, sol.message
     assert sol.energy_error < 1e-14 and sol.S_rises == 0
@@ -120,7 +142,9 @@ def test_a_users_own_rigid_body_declares_and_runs_its_exact_flow():
     with pytest.raises(ValueError, match="declare exact_flows"):
         geomint.solve(undeclared, [0.6, 0.5, 0.4], (0.0, 1.0), 0.1, method=geomint.Strang(geomint.RigidBodyFlow()))
     with pytest.raises(ValueError, match=r"hold for rigid_body_flow: grad H = \(a x, b y, c z\)"):
-        geomint.MetriplecticSystem(H=_H, grad_H=_grad_H, S=_S, grad_S=_m, J=_m, exact_flows={"rigid_body_flow": (1, 1, 2)})
+        geomint.MetriplecticSystem(
+            H=_H, grad_H=_grad_H, S=_S, grad_S=_m, J=_m, exact_flows={"rigid_body_flow": (1, 1, 2)}
+        )
 
 
 def test_traits_are_instance_facts_and_the_cli_prints_them():

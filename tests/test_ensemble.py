@@ -7,9 +7,9 @@ import sys
 
 import numpy as np
 import pytest
+from test_user_errors import _grad_S_raising_below_half, _oscillator
 
 import geomint
-from test_user_errors import _grad_S_raising_below_half, _oscillator
 
 BODY = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
 STARTS = np.random.default_rng(5).normal(size=(23, 3))
@@ -20,8 +20,13 @@ def _same(ensemble, i, sol):
     n = ensemble.rows[i]
     for name in ("t", "x", "H", "S"):
         np.testing.assert_array_equal(getattr(ensemble, name)[i, :n], getattr(sol, name))
-    assert (ensemble.status[i], ensemble.n_steps[i], ensemble.n_newton[i], ensemble.nfev[i], ensemble.n_rejected[i]) == (
-        sol.status, sol.n_steps, sol.n_newton, sol.nfev, sol.n_rejected)
+    assert (
+        ensemble.status[i],
+        ensemble.n_steps[i],
+        ensemble.n_newton[i],
+        ensemble.nfev[i],
+        ensemble.n_rejected[i],
+    ) == (sol.status, sol.n_steps, sol.n_newton, sol.nfev, sol.n_rejected)
     assert ensemble.messages[i] == sol.message
 
 
@@ -41,17 +46,22 @@ def test_each_adaptive_trajectory_is_its_own_adaptive_solve_bit_for_bit(method):
     """Adaptive steps (one estimator each: RK4 reference, embedded pair, step doubling), the first step chosen per
     trajectory; rows at t_eval, or at the start and the end."""
     t_eval = [0.5, 1.0, 2.5, 4.0]
-    ensemble = geomint.solve_ensemble(BODY, STARTS, (0.0, 4.0), method=method, rtol=1e-7, atol=1e-9, t_eval=t_eval,
-                                      chunk=6)
+    ensemble = geomint.solve_ensemble(
+        BODY, STARTS, (0.0, 4.0), method=method, rtol=1e-7, atol=1e-9, t_eval=t_eval, chunk=6
+    )
     assert np.all(ensemble.success) and ensemble.t.shape == (len(STARTS), 4)
     assert np.all(ensemble.n_steps > 4) and len(set(ensemble.n_steps.tolist())) > 1  # own steps each
     for i in (0, 7, 22):
-        _same(ensemble, i, geomint.solve(BODY, STARTS[i], (0.0, 4.0), method=method, rtol=1e-7, atol=1e-9,
-                                         t_eval=t_eval))
+        _same(
+            ensemble, i, geomint.solve(BODY, STARTS[i], (0.0, 4.0), method=method, rtol=1e-7, atol=1e-9, t_eval=t_eval)
+        )
     ends = geomint.solve_ensemble(BODY, STARTS[:3], (0.0, 4.0), method=method, rtol=1e-5, first_step=0.01)
     for i in range(3):
-        _same(ends, i, geomint.solve(BODY, STARTS[i], (0.0, 4.0), method=method, rtol=1e-5, first_step=0.01,
-                                     save_every=None))
+        _same(
+            ends,
+            i,
+            geomint.solve(BODY, STARTS[i], (0.0, 4.0), method=method, rtol=1e-5, first_step=0.01, save_every=None),
+        )
 
 
 def test_fixed_steps_landing_on_t_eval_and_backward_spans_are_solve_too():
@@ -129,7 +139,7 @@ def test_failures_stay_with_their_trajectory_and_keep_their_rows():
     assert "not finite" in ensemble.messages[1] and "H and S must be finite at x0" in ensemble.messages[3]
     alone = geomint.solve(stiff, X0[0], (0.0, 20.0), 0.2, method="rk4", save_every=2)
     _same(ensemble, 0, alone)
-    assert np.all(np.isnan(ensemble.x[0, ensemble.rows[0]:])) and ensemble.failed_step[0] == alone.failed_step
+    assert np.all(np.isnan(ensemble.x[0, ensemble.rows[0] :])) and ensemble.failed_step[0] == alone.failed_step
     _same(ensemble, 2, geomint.solve(stiff, X0[2], (0.0, 20.0), 0.2, method="rk4", save_every=2))
     assert ensemble.solution(0).message == alone.message
 
@@ -151,25 +161,28 @@ def test_to_xarray_labels_trajectories_times_components_and_parameters():
     np.testing.assert_array_equal(data["x"].values, ensemble.x)
 
 
-@pytest.mark.parametrize("kwargs, error, match", [
-    (dict(X0=[0.1, 0.2, 0.3]), ValueError, r"`X0` must have shape \(n, 3\) with n >= 1; got shape \(3,\)"),
-    (dict(X0=np.zeros((2, 2))), ValueError, r"`X0` must have shape \(n, 3\)"),
-    (dict(X0="abc"), TypeError, r"`X0` must be an array"),
-    (dict(params=np.ones((3, 3))), ValueError, r"`params` must have shape \(n, p\) = \(2, 3\), a row per start"),
-    (dict(params=[[1, 2, np.nan]] * 2), ValueError, r"`params` must be finite; row 0"),
-    (dict(eps=[0.1]), ValueError, r"`eps` must have shape \(n,\) = \(2,\)"),
-    (dict(eps=[0.1, -1.0]), ValueError, r"`eps` must be >= 0"),
-    (dict(backend="spark"), ValueError, r"`backend` must be 'local' or 'dask'; got 'spark'"),
-    (dict(chunk=0), ValueError, r"`chunk` must be an integer >= 1; got 0"),
-    (dict(threads=True), ValueError, r"`threads` must be an integer >= 1; got True"),
-    (dict(h="0.1"), TypeError, r"`h` must be a real number"),
-    (dict(progress=3), TypeError, r"`progress` must be None or a callable"),
-    (dict(rtol=1e-6), ValueError, r"`h` = 0.1 fixes the step, so `rtol` cannot be given too"),
-    (dict(h=None, rtol=0.0), ValueError, r"`rtol` must be finite and >= 100 eps"),
-    (dict(h=None, save_every=5), ValueError, r"`save_every` must be 1 or None with adaptive steps"),
-    (dict(t_eval=[0.5, 2.0]), ValueError, r"`t_eval` must lie within t_span"),
-    (dict(t_span=(1.0, 0.0), method="projected"), ValueError, r"runs backward, which"),
-])
+@pytest.mark.parametrize(
+    "kwargs, error, match",
+    [
+        (dict(X0=[0.1, 0.2, 0.3]), ValueError, r"`X0` must have shape \(n, 3\) with n >= 1; got shape \(3,\)"),
+        (dict(X0=np.zeros((2, 2))), ValueError, r"`X0` must have shape \(n, 3\)"),
+        (dict(X0="abc"), TypeError, r"`X0` must be an array"),
+        (dict(params=np.ones((3, 3))), ValueError, r"`params` must have shape \(n, p\) = \(2, 3\), a row per start"),
+        (dict(params=[[1, 2, np.nan]] * 2), ValueError, r"`params` must be finite; row 0"),
+        (dict(eps=[0.1]), ValueError, r"`eps` must have shape \(n,\) = \(2,\)"),
+        (dict(eps=[0.1, -1.0]), ValueError, r"`eps` must be >= 0"),
+        (dict(backend="spark"), ValueError, r"`backend` must be 'local' or 'dask'; got 'spark'"),
+        (dict(chunk=0), ValueError, r"`chunk` must be an integer >= 1; got 0"),
+        (dict(threads=True), ValueError, r"`threads` must be an integer >= 1; got True"),
+        (dict(h="0.1"), TypeError, r"`h` must be a real number"),
+        (dict(progress=3), TypeError, r"`progress` must be None or a callable"),
+        (dict(rtol=1e-6), ValueError, r"`h` = 0.1 fixes the step, so `rtol` cannot be given too"),
+        (dict(h=None, rtol=0.0), ValueError, r"`rtol` must be finite and >= 100 eps"),
+        (dict(h=None, save_every=5), ValueError, r"`save_every` must be 1 or None with adaptive steps"),
+        (dict(t_eval=[0.5, 2.0]), ValueError, r"`t_eval` must lie within t_span"),
+        (dict(t_span=(1.0, 0.0), method="projected"), ValueError, r"runs backward, which"),
+    ],
+)
 def test_bad_input_is_refused_with_the_rule(kwargs, error, match):
     arguments = dict(system=BODY, X0=STARTS[:2], t_span=(0.0, 1.0), h=0.1)
     arguments.update(kwargs)
@@ -186,22 +199,26 @@ def test_the_dask_backend_without_dask_says_which_extra_to_install(monkeypatch):
 @pytest.fixture(scope="module")
 def dask_client():
     distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
-            distributed.Client(cluster) as client:
+    with (
+        distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster,
+        distributed.Client(cluster) as client,
+    ):
         yield client
 
 
 def test_dask_gives_the_local_arrays_bit_for_bit(dask_client):
     local = geomint.solve_ensemble(BODY, STARTS, (0.0, 3.0), 0.05, save_every=3)
-    remote = geomint.solve_ensemble(BODY, STARTS, (0.0, 3.0), 0.05, save_every=3, backend="dask", client=dask_client,
-                                    chunk=4)
+    remote = geomint.solve_ensemble(
+        BODY, STARTS, (0.0, 3.0), 0.05, save_every=3, backend="dask", client=dask_client, chunk=4
+    )
     for name in ("t", "x", "H", "S", "rows", "status", "n_newton", "nfev"):
         np.testing.assert_array_equal(getattr(remote, name), getattr(local, name))
     assert remote.messages == local.messages
     assert remote.caveats == local.caveats and np.array_equal(remote.step_ratio, local.step_ratio)
     local = geomint.solve_ensemble(BODY, STARTS, (0.0, 3.0), rtol=1e-6, t_eval=[1.0, 2.0, 3.0])
-    remote = geomint.solve_ensemble(BODY, STARTS, (0.0, 3.0), rtol=1e-6, t_eval=[1.0, 2.0, 3.0], backend="dask",
-                                    client=dask_client, chunk=4)
+    remote = geomint.solve_ensemble(
+        BODY, STARTS, (0.0, 3.0), rtol=1e-6, t_eval=[1.0, 2.0, 3.0], backend="dask", client=dask_client, chunk=4
+    )
     for name in ("t", "x", "H", "S", "rows", "status", "n_steps", "n_rejected"):
         np.testing.assert_array_equal(getattr(remote, name), getattr(local, name))
 
@@ -222,10 +239,18 @@ def test_a_dask_worker_killed_mid_run_loses_nothing(dask_client):
 
     X0 = np.concatenate([STARTS] * 4)
     local = geomint.solve_ensemble(BODY, X0, (0.0, 60.0), 0.01, save_every=None)
-    remote = geomint.solve_ensemble(BODY, X0, (0.0, 60.0), 0.01, save_every=None, backend="dask", client=dask_client,
-                                    chunk=4, progress=kill_a_busy_worker)
+    remote = geomint.solve_ensemble(
+        BODY,
+        X0,
+        (0.0, 60.0),
+        0.01,
+        save_every=None,
+        backend="dask",
+        client=dask_client,
+        chunk=4,
+        progress=kill_a_busy_worker,
+    )
     assert killed, "no worker was busy when the first chunk finished"
     assert killed[0] not in dask_client.run(os.getpid).values()
     np.testing.assert_array_equal(remote.x, local.x)
     assert np.all(remote.success)
-

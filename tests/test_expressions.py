@@ -6,16 +6,21 @@ import sys
 
 import numpy as np
 import pytest
+from hostile_strings import hostile
 from numba import njit
 
 import geomint
 from geomint.model import expressions
-from hostile_strings import hostile
 
-LORENZ_NEVIR = dict(H="(y**2 + z**2)/2 - r*z", S="x**2/2 - sigma*z", J=("-x", "0", "sigma"),
-                    params={"sigma": 10.0, "r": 28.0})
-COSH_EXP = dict(H="a*cosh(x) + cosh(y) + exp(z) - z", S="cosh(x) + z**2/2",
-                J=("exp(y/2)*sinh(x)", "0", "exp(y/2)*z"), params={"a": 0.5})
+LORENZ_NEVIR = dict(
+    H="(y**2 + z**2)/2 - r*z", S="x**2/2 - sigma*z", J=("-x", "0", "sigma"), params={"sigma": 10.0, "r": 28.0}
+)
+COSH_EXP = dict(
+    H="a*cosh(x) + cosh(y) + exp(z) - z",
+    S="cosh(x) + z**2/2",
+    J=("exp(y/2)*sinh(x)", "0", "exp(y/2)*z"),
+    params={"a": 0.5},
+)
 
 
 # hand-written kernels, spelt the way the generator writes its arithmetic
@@ -79,8 +84,9 @@ HAND_WRITTEN = {
 def test_expression_system_matches_hand_written_kernels_bit_for_bit(name):
     spec, (H, grad_H, S, grad_S, J), x0, eps = HAND_WRITTEN[name]
     from_text = geomint.MetriplecticSystem.from_expressions(**spec, eps=eps, name=name)
-    by_hand = geomint.MetriplecticSystem(H=H, grad_H=grad_H, S=S, grad_S=grad_S, J=J, eps=eps,
-                                         params=list(spec["params"].values()), name=name)
+    by_hand = geomint.MetriplecticSystem(
+        H=H, grad_H=grad_H, S=S, grad_S=grad_S, J=J, eps=eps, params=list(spec["params"].values()), name=name
+    )
     runs = [geomint.solve(system, x0, (0.0, 1e4 * 1e-3), 1e-3, method="gonzalez") for system in (from_text, by_hand)]
     assert all(sol.success and sol.n_steps == 10_000 for sol in runs)
     assert np.array_equal(runs[0].x, runs[1].x)
@@ -107,15 +113,17 @@ def test_an_S_that_is_not_a_casimir_is_refused_with_the_residual():
 
 def test_a_P_that_is_not_skew_is_refused():
     with pytest.raises(ValueError, match=r"`P` is not skew: P \+ P\^T = 0 fails"):
-        geomint.MetriplecticSystem.from_expressions(H="x**2/2", S="z**2/2", P=(("0", "z", "0"), ("z", "0", "0"),
-                                                                               ("0", "0", "0")))
+        geomint.MetriplecticSystem.from_expressions(
+            H="x**2/2", S="z**2/2", P=(("0", "z", "0"), ("z", "0", "0"), ("0", "0", "0"))
+        )
 
 
 def test_a_skew_P_gives_the_same_field_as_its_axial_vector():
     P = (("0", "1", "0"), ("-1", "0", "0"), ("0", "0", "0"))  # P v = v x (0, 0, 1)
     as_matrix = geomint.MetriplecticSystem.from_expressions(H="(x**2 + y**2 + z**2)/2", S="z**2/2", P=P, eps=0.5)
-    as_axial = geomint.MetriplecticSystem.from_expressions(H="(x**2 + y**2 + z**2)/2", S="z**2/2",
-                                                           J=("0", "0", "1"), eps=0.5)
+    as_axial = geomint.MetriplecticSystem.from_expressions(
+        H="(x**2 + y**2 + z**2)/2", S="z**2/2", J=("0", "0", "1"), eps=0.5
+    )
     x = np.array([0.6, 0.0, 0.8])
     np.testing.assert_array_equal(as_matrix.functions.poisson(x, np.empty(0)), [[0, 1, 0], [-1, 0, 0], [0, 0, 0]])
     np.testing.assert_allclose(as_matrix.xi(x), as_axial.xi(x), rtol=1e-15)
@@ -144,8 +152,10 @@ print(sum(sum(s.cache_hits.values()) for s in stats), sum(sum(s.cache_misses.val
 
 def test_a_second_process_loads_the_generated_code_from_the_disk_cache(tmp_path):
     env = {**os.environ, "GEOMINT_CACHE_DIR": str(tmp_path)}
-    runs = [subprocess.run([sys.executable, "-c", SECOND_PROCESS], capture_output=True, text=True, env=env,
-                           timeout=600) for _ in range(2)]
+    runs = [
+        subprocess.run([sys.executable, "-c", SECOND_PROCESS], capture_output=True, text=True, env=env, timeout=600)
+        for _ in range(2)
+    ]
     assert all(run.returncode == 0 for run in runs), runs[0].stderr + runs[1].stderr
     (first_hits, first_misses), (hits, misses) = (map(int, run.stdout.split()) for run in runs)
     assert (first_hits, first_misses) == (0, 5)

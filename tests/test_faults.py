@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_scene_errors import VALID
 
 from geomint.cli import BAD_INPUT, INTERRUPTED, OK, main
-from test_scene_errors import VALID
 
 FIGURED = VALID.replace("figures = []", 'figures = ["invariants"]').replace("every = 1", "every = 2")
 BIG = "1" * 400
@@ -39,8 +39,9 @@ def _one_line_error(err, pattern):
 
 def _no_files_left(folder):
     """Nothing under the final names, and no temporary file either."""
-    return not folder.exists() or not any(p.suffix in (".npz", ".json", ".png") or ".part" in p.name
-                                          for p in folder.iterdir())
+    return not folder.exists() or not any(
+        p.suffix in (".npz", ".json", ".png") or ".part" in p.name for p in folder.iterdir()
+    )
 
 
 def _scene(tmp_path, text, name="scene", binary=False):
@@ -57,13 +58,22 @@ SCENE_FAULTS = {
     "400-digit parameter": (VALID.replace("a = 0.5", f"a = {BIG}"), r"`system.parameters.a`: .*400 digits"),
     "400-digit duration": (VALID.replace("duration = 0.5", f"duration = {BIG}"), r"`integrator.duration`: .*400"),
     "400-digit eps": (VALID.replace("eps = 0.1", f"eps = {BIG}"), r"`effects.eps`: .*400 digits"),
-    "duration 1e308, h 1e-308": (VALID.replace("h = 0.05", "h = 1e-308").replace("duration = 0.5", "duration = 1e308"),
-                                 r"`integrator.h`: .*at most 2\*\*52"),
-    "1e12 steps saved every step": (VALID.replace("h = 0.05", "h = 1e-12").replace("duration = 0.5", "duration = 1.0"),
-                                    r"`output.every`: saving 1000000000002 states .* GiB, more than half"),
-    "unbalanced mathtext title": (FIGURED.replace('title = "test"', 'title = "$x^{$"'), r"`title`: its \$\.\.\.\$ math"),
-    "method that cannot run": (VALID.replace('method = "gonzalez"', 'method = "rigid_body_flow"'),
-                               r"`integrator.method`: .*Hamiltonian part only"),
+    "duration 1e308, h 1e-308": (
+        VALID.replace("h = 0.05", "h = 1e-308").replace("duration = 0.5", "duration = 1e308"),
+        r"`integrator.h`: .*at most 2\*\*52",
+    ),
+    "1e12 steps saved every step": (
+        VALID.replace("h = 0.05", "h = 1e-12").replace("duration = 0.5", "duration = 1.0"),
+        r"`output.every`: saving 1000000000002 states .* GiB, more than half",
+    ),
+    "unbalanced mathtext title": (
+        FIGURED.replace('title = "test"', 'title = "$x^{$"'),
+        r"`title`: its \$\.\.\.\$ math",
+    ),
+    "method that cannot run": (
+        VALID.replace('method = "gonzalez"', 'method = "rigid_body_flow"'),
+        r"`integrator.method`: .*Hamiltonian part only",
+    ),
     "empty file": ("", r"`system.name`: missing"),
     "unknown key": (VALID.replace("every = 1", "every = 1\nfoo = 2"), r"`output.foo`: unknown key"),
     "h as a string": (VALID.replace("h = 0.05", 'h = "0.05"'), r"`integrator.h`: must be a number; got '0.05'"),
@@ -74,10 +84,14 @@ SCENE_FAULTS = {
     "unknown figure": (VALID.replace("figures = []", 'figures = ["movie"]'), r"`output.figures"),
     "unknown method": (VALID.replace('method = "gonzalez"', 'method = "euler"'), r"`integrator.method`"),
     "point of 2 components": (VALID.replace("[[0.6, 0.0, 0.8]]", "[[0.6, 0.0]]"), r"`initial.points"),
-    "level set of 10**7 states": (VALID.replace("points = [[0.6, 0.0, 0.8]]", "level_set = { H0 = 0.5, n = 10000000 }"),
-                                  r"`initial.level_set.n`: must be an integer in \[1, 1000000\]"),
-    "level set of a 400-digit count": (VALID.replace("points = [[0.6, 0.0, 0.8]]", f"level_set = {{ H0 = 0.5, n = {BIG} }}"),
-                                       r"`initial.level_set.n`: must be an integer in"),
+    "level set of 10**7 states": (
+        VALID.replace("points = [[0.6, 0.0, 0.8]]", "level_set = { H0 = 0.5, n = 10000000 }"),
+        r"`initial.level_set.n`: must be an integer in \[1, 1000000\]",
+    ),
+    "level set of a 400-digit count": (
+        VALID.replace("points = [[0.6, 0.0, 0.8]]", f"level_set = {{ H0 = 0.5, n = {BIG} }}"),
+        r"`initial.level_set.n`: must be an integer in",
+    ),
     "parameter as a string": (VALID.replace("a = 0.5", 'a = "half"'), r"`system.parameters.a`"),
     "not TOML": ("title = = 1", r"not valid TOML"),
     "random bytes": (bytes(range(256)) * 4, r"not UTF-8 text"),
@@ -97,10 +111,13 @@ def test_a_bad_scene_is_one_line_exit_2_and_nothing_written(tmp_path, capsys, ca
     assert _no_files_left(out)
 
 
-@pytest.mark.parametrize("target, pattern", [
-    ("missing.toml", r"no such scene file, nor a bundled scene"),
-    (".", r"is a folder"),
-])
+@pytest.mark.parametrize(
+    "target, pattern",
+    [
+        ("missing.toml", r"no such scene file, nor a bundled scene"),
+        (".", r"is a folder"),
+    ],
+)
 def test_a_scene_that_is_not_a_file(tmp_path, capsys, target, pattern):
     code, err = _cli(["run", tmp_path / target, "--out", tmp_path / "out"], capsys)
     assert code == BAD_INPUT
@@ -108,18 +125,21 @@ def test_a_scene_that_is_not_a_file(tmp_path, capsys, target, pattern):
 
 
 # -- command-line options ----------------------------------------------------------------------
-@pytest.mark.parametrize("argv, pattern", [
-    (["--steps", 10**20], r"argument --steps: must be finite and > 0 and <= 4\.5036e\+15; got 1000"),
-    (["--steps", "abc"], r"argument --steps: must be an integer; got 'abc'"),
-    (["--steps", 0], r"argument --steps: must be finite and > 0"),
-    (["--h", "inf"], r"argument --h: must be finite and > 0; got inf"),
-    (["--h", "-1"], r"argument --h: must be finite and > 0; got -1"),
-    (["--h", "nan"], r"argument --h: must be finite"),
-    (["--eps", "nan"], r"argument --eps: must be finite and >= 0; got nan"),
-    (["--eps", "-0.1"], r"argument --eps: must be finite and >= 0"),
-    (["--eps", "1e999"], r"argument --eps: must be finite"),
-    (["--steps", 10**9, "--h", "1e300"], r"the span steps \* h = .* is not finite"),
-])
+@pytest.mark.parametrize(
+    "argv, pattern",
+    [
+        (["--steps", 10**20], r"argument --steps: must be finite and > 0 and <= 4\.5036e\+15; got 1000"),
+        (["--steps", "abc"], r"argument --steps: must be an integer; got 'abc'"),
+        (["--steps", 0], r"argument --steps: must be finite and > 0"),
+        (["--h", "inf"], r"argument --h: must be finite and > 0; got inf"),
+        (["--h", "-1"], r"argument --h: must be finite and > 0; got -1"),
+        (["--h", "nan"], r"argument --h: must be finite"),
+        (["--eps", "nan"], r"argument --eps: must be finite and >= 0; got nan"),
+        (["--eps", "-0.1"], r"argument --eps: must be finite and >= 0"),
+        (["--eps", "1e999"], r"argument --eps: must be finite"),
+        (["--steps", 10**9, "--h", "1e300"], r"the span steps \* h = .* is not finite"),
+    ],
+)
 def test_bad_drift_options_are_one_line_exit_2(capsys, argv, pattern):
     code, err = _cli(["drift", *argv], capsys)
     assert code == BAD_INPUT
@@ -133,9 +153,11 @@ def test_out_that_is_a_file_or_below_a_file_is_refused_before_the_run(tmp_path, 
     taken = tmp_path / "taken"
     taken.write_text("keep me")
     scene = _scene(tmp_path, VALID)
-    for out, pattern in ((taken, r"--out .*taken: cannot write there \(File exists\)"),
-                         (taken / "sub", r"--out .*sub: cannot write there \(Not a directory\)"),
-                         (Path("/dev/full"), r"--out /dev/full: cannot write there")):
+    for out, pattern in (
+        (taken, r"--out .*taken: cannot write there \(File exists\)"),
+        (taken / "sub", r"--out .*sub: cannot write there \(Not a directory\)"),
+        (Path("/dev/full"), r"--out /dev/full: cannot write there"),
+    ):
         code, err = _cli(["run", scene, "--out", out], capsys)
         assert code == BAD_INPUT
         _one_line_error(err, pattern)
@@ -155,6 +177,7 @@ def test_a_result_name_taken_by_a_folder_is_refused_before_the_run(tmp_path, cap
 def test_a_disk_that_fills_while_writing_leaves_no_partial_file(tmp_path, capsys, monkeypatch, failing):
     """The write starts (bytes reach the temporary file), then the disk is full: exit 2, one line, and no file
     under the final name of the one being written."""
+
     def full(target, *args, **kwargs):
         target = args[0] if failing.endswith("savefig") else target
         Path(target).write_bytes(b"half a file")
@@ -205,8 +228,14 @@ def _unprivileged():
 
 
 def _geomint(args, cwd, env=None, prefix=()):
-    return subprocess.run([*prefix, sys.executable, "-m", "geomint.cli", *map(str, args)], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=600)
+    return subprocess.run(
+        [*prefix, sys.executable, "-m", "geomint.cli", *map(str, args)],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
 
 
 #: ``geomint`` command lines run one after another in one process: argv[1] is a JSON list of ``[cwd, argv]``;
@@ -247,12 +276,25 @@ def test_unwritable_out_and_unwritable_working_folder(tmp_path):
     locked.mkdir()
     locked.chmod(0o555)
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    cases = ((["run", scene, "--out", locked / "out"], tmp_path, "--out .*locked/out"),
-             (["run", scene], locked, "--out runs/scene"))
+    cases = (
+        (["run", scene, "--out", locked / "out"], tmp_path, "--out .*locked/out"),
+        (["run", scene], locked, "--out runs/scene"),
+    )
     # both cases in one unprivileged process (``main`` is the console entry point), each from its own folder
-    done = subprocess.run([*prefix, sys.executable, "-c", _CLI_CASES,
-                           json.dumps([[str(cwd), [str(a) for a in args]] for args, cwd, _ in cases])],
-                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    done = subprocess.run(
+        [
+            *prefix,
+            sys.executable,
+            "-c",
+            _CLI_CASES,
+            json.dumps([[str(cwd), [str(a) for a in args]] for args, cwd, _ in cases]),
+        ],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
     results = json.loads(done.stdout)
     assert len(results) == len(cases)
@@ -263,12 +305,21 @@ def test_unwritable_out_and_unwritable_working_folder(tmp_path):
 
 
 def test_ctrl_c_in_a_cli_run_writes_what_was_done_and_exits_130(tmp_path, warm_cli):
-    long = VALID.replace("points = [[0.6, 0.0, 0.8]]", "points = [[0.6, 0.0, 0.8], [0.0, 0.6, 0.8]]").replace(
-        "duration = 0.5", "duration = 1e6").replace("every = 1", "every = 10000")
+    long = (
+        VALID.replace("points = [[0.6, 0.0, 0.8]]", "points = [[0.6, 0.0, 0.8], [0.0, 0.6, 0.8]]")
+        .replace("duration = 0.5", "duration = 1e6")
+        .replace("every = 1", "every = 10000")
+    )
     scene, out = _scene(tmp_path, long), tmp_path / "out"
     env = warm_cli
-    process = subprocess.Popen([sys.executable, "-m", "geomint.cli", "run", str(scene), "--out", str(out), "--quiet"],
-                               cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True, preexec_fn=_answer_sigint)
+    process = subprocess.Popen(
+        [sys.executable, "-m", "geomint.cli", "run", str(scene), "--out", str(out), "--quiet"],
+        cwd=tmp_path,
+        env=env,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=_answer_sigint,
+    )
     time.sleep(4.0)
     process.send_signal(signal.SIGINT)
     sent = time.perf_counter()
@@ -293,23 +344,27 @@ def test_a_read_only_install_with_a_read_only_home_imports_and_solves(tmp_path):
     shutil.copytree(ROOT / "geomint", site / "geomint", ignore=shutil.ignore_patterns("__pycache__"))
     for folder in (home, tmp):
         folder.mkdir()
-    code = ("import geomint; b = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1); "
-            "s = geomint.solve(b, [0.6, 0.0, 0.8], (0.0, 1.0), 0.1, method='rk4'); "
-            "print(s.success, geomint._cache.CACHE, geomint._cache.ROOT)")
+    code = (
+        "import geomint; b = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1); "
+        "s = geomint.solve(b, [0.6, 0.0, 0.8], (0.0, 1.0), 0.1, method='rk4'); "
+        "print(s.success, geomint._cache.CACHE, geomint._cache.ROOT)"
+    )
     env = {k: v for k, v in os.environ.items() if not k.startswith(("NUMBA_CACHE", "XDG_", "PYTHON"))}
     env.update(PYTHONPATH=str(site), HOME=str(home), TMPDIR=str(tmp))
     for path in [*site.rglob("*"), site, home]:
         path.chmod(0o555 if path.is_dir() else 0o444)
     try:
-        with_tmp = subprocess.run([*prefix, sys.executable, "-c", code], cwd=home, env=env, capture_output=True,
-                                  text=True, timeout=600)
+        with_tmp = subprocess.run(
+            [*prefix, sys.executable, "-c", code], cwd=home, env=env, capture_output=True, text=True, timeout=600
+        )
         assert with_tmp.returncode == 0, with_tmp.stderr
         assert with_tmp.stdout.split()[:2] == ["True", "True"] and str(tmp) in with_tmp.stdout
         for path in [tmp, *tmp.rglob("*")]:  # and no other temporary folder: Python would fall back to /tmp
             path.chmod(0o555 if path.is_dir() else 0o444)
         pinned = f"import tempfile; tempfile.tempdir = {str(tmp)!r}; " + code
-        without = subprocess.run([*prefix, sys.executable, "-c", pinned], cwd=home, env=env, capture_output=True,
-                                 text=True, timeout=600)
+        without = subprocess.run(
+            [*prefix, sys.executable, "-c", pinned], cwd=home, env=env, capture_output=True, text=True, timeout=600
+        )
         assert without.returncode == 0, without.stderr
         assert without.stdout.split()[:2] == ["True", "False"]
         assert "no writable folder for numba's cache" in without.stderr and "Traceback" not in without.stderr
@@ -321,14 +376,33 @@ def test_a_read_only_install_with_a_read_only_home_imports_and_solves(tmp_path):
 def test_resume_from_a_checkpoint_gives_the_uninterrupted_run_bit_for_bit(tmp_path, capsys, warm_cli):
     """Ctrl-C once the run's first checkpoint is on disk, then --resume: the arrays equal a run never stopped.
     (Not a fixed delay: on a loaded machine the process may not have started stepping after 2 s.)"""
-    scene_text = VALID.replace("points = [[0.6, 0.0, 0.8]]", "points = [[0.6, 0.0, 0.8], [0.0, 0.6, 0.8]]").replace(
-        "duration = 0.5", "duration = 1.5e5").replace("every = 1", "every = 997")
+    scene_text = (
+        VALID.replace("points = [[0.6, 0.0, 0.8]]", "points = [[0.6, 0.0, 0.8], [0.0, 0.6, 0.8]]")
+        .replace("duration = 0.5", "duration = 1.5e5")
+        .replace("every = 1", "every = 997")
+    )
     scene = _scene(tmp_path, scene_text)
     env = warm_cli
     out = tmp_path / "resumed"
-    process = subprocess.Popen([sys.executable, "-m", "geomint.cli", "run", str(scene), "--out", str(out), "--quiet",
-                                "--checkpoint-every", "20000"], cwd=tmp_path, env=env, stderr=subprocess.PIPE,
-                               text=True, preexec_fn=_answer_sigint)
+    process = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "geomint.cli",
+            "run",
+            str(scene),
+            "--out",
+            str(out),
+            "--quiet",
+            "--checkpoint-every",
+            "20000",
+        ],
+        cwd=tmp_path,
+        env=env,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=_answer_sigint,
+    )
     running = out / "scene.checkpoint" / "running.npz"
     deadline = time.monotonic() + 120
     while not running.exists() and process.poll() is None and time.monotonic() < deadline:

@@ -24,9 +24,13 @@ def test_steps_on_the_time_scale_always_succeed(system, x, h):
 
 
 @given(system=gt.catalogue_systems(), x=gt.states(), h=gt.step_sizes(1e-3, 0.5))
-@example(system=geomint.systems.quartic_rigid_body(0.19960137114540488, 0.1, 2.00001, 1.6545766467710967,
-                                                   eps=0.12051735129147259),
-         x=np.array([0.0, 1.5, 0.483098552047482]), h=0.0010000000000000002)
+@example(
+    system=geomint.systems.quartic_rigid_body(
+        0.19960137114540488, 0.1, 2.00001, 1.6545766467710967, eps=0.12051735129147259
+    ),
+    x=np.array([0.0, 1.5, 0.483098552047482]),
+    h=0.0010000000000000002,
+)
 def test_discrete_dissipation_identity(system, x, h):
     """S(x') - S(x) = -h eps |dgH x dgS|^2 + dgS . r to round-off, r = x' - x - h F(x, x') the residual the
     Newton solve stopped at (within sqrt(eps) of the state where it stalls, docs/theory.md: S still does not

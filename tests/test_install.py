@@ -16,9 +16,11 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-SOLVE = ("import geomint; b = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1); "
-         "s = geomint.solve(b, [0.6, 0.0, 0.8], (0.0, 1.0), 0.1, method='rk4'); "
-         "print(s.success, geomint.__file__)")
+SOLVE = (
+    "import geomint; b = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1); "
+    "s = geomint.solve(b, [0.6, 0.0, 0.8], (0.0, 1.0), 0.1, method='rk4'); "
+    "print(s.success, geomint.__file__)"
+)
 
 
 def _run(args, **kwargs):
@@ -30,8 +32,13 @@ def _run(args, **kwargs):
 @pytest.mark.slow
 def test_install_run_then_editable_install_imports_the_checkout_from_anywhere(tmp_path):
     source, venv, cache, elsewhere = (tmp_path / name for name in ("source", "venv", "cache", "elsewhere"))
-    shutil.copytree(ROOT, source, ignore=shutil.ignore_patterns(
-        ".git", ".venv", "__pycache__", "build", "*.egg-info", "runs", "site", ".hypothesis", "tests"))
+    shutil.copytree(
+        ROOT,
+        source,
+        ignore=shutil.ignore_patterns(
+            ".git", ".venv", "__pycache__", "build", "*.egg-info", "runs", "site", ".hypothesis", "tests"
+        ),
+    )
     elsewhere.mkdir()
     _run([sys.executable, "-m", "venv", "--without-pip", str(venv)])  # pip and setuptools: this one's
     python = venv / "bin" / "python"
@@ -51,7 +58,8 @@ def test_install_run_then_editable_install_imports_the_checkout_from_anywhere(tm
 
     _run([*pip, "-e", str(source)], env=env)
     assert not installed.exists(), f"the non-editable install left {sorted(installed.rglob('*'))[:5]}"
-    version, where = _run([str(python), "-c", "import geomint; print(geomint.__version__, geomint.__file__)"],
-                          cwd=elsewhere, env=env).split()
+    version, where = _run(
+        [str(python), "-c", "import geomint; print(geomint.__version__, geomint.__file__)"], cwd=elsewhere, env=env
+    ).split()
     assert Path(where).is_relative_to(source) and version[0].isdigit()
     assert "rigid_body_distinct" in _run([str(venv / "bin" / "geomint"), "list"], cwd=elsewhere, env=env)

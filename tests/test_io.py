@@ -13,8 +13,15 @@ BODY = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
 X0 = [0.6, 0.0, 0.8]
 
 
-@pytest.mark.parametrize("method", [geomint.Gonzalez(), geomint.Strang(gradient_part=geomint.RK4()),
-                                    geomint.Projected(geomint.Yoshida4(), symmetric=True), geomint.AVF(nodes=2)])
+@pytest.mark.parametrize(
+    "method",
+    [
+        geomint.Gonzalez(),
+        geomint.Strang(gradient_part=geomint.RK4()),
+        geomint.Projected(geomint.Yoshida4(), symmetric=True),
+        geomint.AVF(nodes=2),
+    ],
+)
 def test_a_saved_solution_loads_back_equal(tmp_path, method):
     sol = geomint.solve(BODY, X0, (0.0, 2.0), 0.1, method=method, save_every=3)
     path = sol.save(tmp_path / "run", system=BODY)
@@ -23,8 +30,14 @@ def test_a_saved_solution_loads_back_equal(tmp_path, method):
     for key in ("t", "x", "H", "S"):
         np.testing.assert_array_equal(getattr(again, key), getattr(sol, key))
     assert again.method == method
-    assert (again.success, again.status, again.message, again.n_steps, again.n_newton, again.nfev) == \
-        (sol.success, sol.status, sol.message, sol.n_steps, sol.n_newton, sol.nfev)
+    assert (again.success, again.status, again.message, again.n_steps, again.n_newton, again.nfev) == (
+        sol.success,
+        sol.status,
+        sol.message,
+        sol.n_steps,
+        sol.n_newton,
+        sol.nfev,
+    )
 
 
 def test_the_file_holds_no_pickles_and_names_the_system_and_version(tmp_path):
@@ -34,8 +47,7 @@ def test_the_file_holds_no_pickles_and_names_the_system_and_version(tmp_path):
         assert sorted(data.files) == ["H", "S", "metadata", "t", "x"]
         meta = json.loads(str(data["metadata"]))
     assert meta["geomint"] == geomint.__version__ and meta["format"] == "geomint-solution"
-    assert meta["system"] == {"name": "relaxing_rigid_body", "params": [0.5, 1.0, 1.5], "eps": 0.1,
-                              "hamiltonian": True}
+    assert meta["system"] == {"name": "relaxing_rigid_body", "params": [0.5, 1.0, 1.5], "eps": 0.1, "hamiltonian": True}
     assert meta["method"] == {"name": "gonzalez", "max_newton_iter": 50, "compensated": True}
     assert "git" not in json.dumps(meta)
 
@@ -44,17 +56,26 @@ def test_a_failed_run_keeps_its_status_and_failed_step(tmp_path):
     sol = geomint.solve(BODY, X0, (0.0, 2.0), 0.5, method=geomint.Gonzalez(max_newton_iter=1))
     assert not sol.success
     again = geomint.load(sol.save(tmp_path / "failed"))
-    assert (again.success, again.status, again.failed_step, again.message) == \
-        (False, sol.status, sol.failed_step, sol.message)
+    assert (again.success, again.status, again.failed_step, again.message) == (
+        False,
+        sol.status,
+        sol.failed_step,
+        sol.message,
+    )
 
 
 def test_a_system_from_formulas_records_its_formulas(tmp_path):
-    system = geomint.MetriplecticSystem.from_expressions(H="(x**2 + y**2 + z**2)/2", S="z**2/2", J=("0", "0", "k"),
-                                                         params={"k": 1.0}, eps=0.2, name="oscillator")
+    system = geomint.MetriplecticSystem.from_expressions(
+        H="(x**2 + y**2 + z**2)/2", S="z**2/2", J=("0", "0", "k"), params={"k": 1.0}, eps=0.2, name="oscillator"
+    )
     sol = geomint.solve(system, X0, (0.0, 1.0), 0.1)
     meta = io.read_metadata(sol.save(tmp_path / "formulas", system=system))
-    assert meta["system"]["expressions"] == {"H": "(x**2 + y**2 + z**2)/2", "S": "z**2/2", "J": ["0", "0", "k"],
-                                             "params": {"k": 1.0}}
+    assert meta["system"]["expressions"] == {
+        "H": "(x**2 + y**2 + z**2)/2",
+        "S": "z**2/2",
+        "J": ["0", "0", "k"],
+        "params": {"k": 1.0},
+    }
 
 
 def test_a_file_that_is_not_a_solution_is_refused_by_name(tmp_path):

@@ -9,7 +9,10 @@ from geomint.testing import observed_order
 
 STEPS = [0.2, 0.1, 0.05, 0.025, 0.0125]
 CASES = {
-    "relaxing_rigid_body": (geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.5), [np.cos(1.1), 0.0, np.sin(1.1)]),
+    "relaxing_rigid_body": (
+        geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.5),
+        [np.cos(1.1), 0.0, np.sin(1.1)],
+    ),
     "quartic_rigid_body": (geomint.systems.quartic_rigid_body(0.5, 1.0, 1.5, k=0.5, eps=0.5), [0.6, 0.3, 0.7]),
 }
 T_END = 2.0

@@ -34,9 +34,20 @@ def test_energy_error_keys_every_method_and_reports_the_worst(runs):
 
 def test_casimir_marks_and_counts_S_rises():
     n = 5
-    sol = geomint.Solution(t=np.arange(n, dtype=float), x=np.zeros((n, 3)), H=np.ones(n),
-                           S=np.array([3.0, 2.0, 2.5, 1.0, 0.5]), success=True, status=0, message="", failed_step=None,
-                           n_steps=n - 1, n_newton=0, nfev=0, method=geomint.RK4())
+    sol = geomint.Solution(
+        t=np.arange(n, dtype=float),
+        x=np.zeros((n, 3)),
+        H=np.ones(n),
+        S=np.array([3.0, 2.0, 2.5, 1.0, 0.5]),
+        success=True,
+        status=0,
+        message="",
+        failed_step=None,
+        n_steps=n - 1,
+        n_newton=0,
+        nfev=0,
+        method=geomint.RK4(),
+    )
     ax = plotting.casimir(sol)
     assert ax.get_title() == "Casimir S: 1 rise beyond round-off"
     assert "S rose (beyond 16 ulps)" in _labels(ax)
@@ -63,8 +74,12 @@ def test_level_surface_counts_failures_in_the_title_and_marks_them():
 
 def test_level_surface_on_an_unbounded_level_set_fits_the_trajectories():
     cylinder = geomint.MetriplecticSystem.from_expressions(
-        H="(y**2 + z**2)/2 - r*z", S="x**2/2 - sigma*z", J=("-x", "0", "sigma"), params={"sigma": 10.0, "r": 28.0},
-        eps=0.002)
+        H="(y**2 + z**2)/2 - r*z",
+        S="x**2/2 - sigma*z",
+        J=("-x", "0", "sigma"),
+        params={"sigma": 10.0, "r": 28.0},
+        eps=0.002,
+    )
     sol = geomint.solve(cylinder, [-2.0, 3.0, 20.0], (0.0, 2.0), 0.002)
     ax = plotting.level_surface(cylinder, sol)
     span = max(np.ptp(sol.x, axis=0))
@@ -99,7 +114,8 @@ def test_the_title_lists_every_energy_level_and_says_which_surfaces_are_drawn():
     many = [geomint.solve(BODY, [0.1 * k, 0.2, 0.3], (0.0, 0.2), 0.1) for k in range(1, 7)]
     energies = [float(sol.H[0]) for sol in many]
     assert plotting.level_surface(BODY, many).get_title() == (
-        f"trajectories on 6 levels of H from {min(energies):.4g} to {max(energies):.4g} (surfaces of the first 3)")
+        f"trajectories on 6 levels of H from {min(energies):.4g} to {max(energies):.4g} (surfaces of the first 3)"
+    )
 
 
 def test_an_unbounded_level_set_is_meshed_in_a_box_not_by_rays():
@@ -134,8 +150,15 @@ def test_scene_figures_leave_no_empty_band_beside_their_key(tmp_path):
     sits beside the panels and the figure is cropped to it."""
     from geomint.scene import Scene, run_scene
 
-    scene = Scene(system="relaxing_rigid_body", points=[[0.6, 0.0, 0.8], [0.0, 0.6, 0.8]], h=0.1, duration=2.0,
-                  eps=0.5, figures=("overview", "trajectories", "invariants", "drift"), every=1)
+    scene = Scene(
+        system="relaxing_rigid_body",
+        points=[[0.6, 0.0, 0.8], [0.0, 0.6, 0.8]],
+        h=0.1,
+        duration=2.0,
+        eps=0.5,
+        figures=("overview", "trajectories", "invariants", "drift"),
+        every=1,
+    )
     for path in plotting.draw(run_scene(scene), tmp_path):
         widest, after = _blank_columns(path)
         assert widest < 0.05 and after < 0.03, (path.name, widest, after)

@@ -45,17 +45,23 @@ def test_the_S_constraint_of_the_projection_is_active_when_the_method_raises_S()
     assert projected.success and projected.S_rises == 0 and projected.energy_error <= 4 * EPS
 
 
-@pytest.mark.parametrize("method, order", [
-    (geomint.Projected(), 4), (geomint.Projected(geomint.Gonzalez(), symmetric=True), 2),
-    (geomint.Projected(geomint.Yoshida4(), symmetric=True), 4),
-])
+@pytest.mark.parametrize(
+    "method, order",
+    [
+        (geomint.Projected(), 4),
+        (geomint.Projected(geomint.Gonzalez(), symmetric=True), 2),
+        (geomint.Projected(geomint.Yoshida4(), symmetric=True), 4),
+    ],
+)
 def test_projection_keeps_the_order_of_the_method(method, order):
     """Free rigid body (R1), reference: the exact flow."""
     body = geomint.systems.relaxing_rigid_body(eps=0.0)
     exact = geomint.reference.rigid_body_exact(0.5, 1.0, 1.5, X0, 2.0)
     hs = 2.0 / np.array([16, 23, 32, 45, 64])
-    errors = [np.max(np.abs(geomint.solve(body, X0, (0.0, 2.0), h, method=method, save_every=None).x_final - exact))
-              for h in hs]
+    errors = [
+        np.max(np.abs(geomint.solve(body, X0, (0.0, 2.0), h, method=method, save_every=None).x_final - exact))
+        for h in hs
+    ]
     assert abs(gt.observed_order(hs, errors) - order) <= 0.15
 
 
@@ -74,15 +80,21 @@ def test_negative_gammas_raise_S_in_sub_steps_and_monotone_stops_full_step_rises
     assert S_rise_statistics(body, geomint.Composition(R2_BASE, scheme), X0, 0.01, 5000)["full_step_rises"] == 0
     assert safe["safeguard_fired"] > 0 and safe["status"] == 0
     # what remains is the fallback's own round-off (Gonzalez lowers S up to round-off)
-    assert S_rise_statistics(body, geomint.Composition(R2_BASE, scheme, monotone=True), X0, 0.01, 5000)[
-        "full_step_rises"] == 0
+    assert (
+        S_rise_statistics(body, geomint.Composition(R2_BASE, scheme, monotone=True), X0, 0.01, 5000)["full_step_rises"]
+        == 0
+    )
 
 
 def test_the_monotone_safeguard_costs_no_accuracy_where_it_does_not_fire():
     body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=1.0)
     for scheme in ("yoshida4", "yoshida6"):
-        free, safe = (geomint.solve(body, X0, (0.0, 5.0), 0.1, method=geomint.Composition(R2_BASE, scheme, monotone=m),
-                                    save_every=None) for m in (False, True))
+        free, safe = (
+            geomint.solve(
+                body, X0, (0.0, 5.0), 0.1, method=geomint.Composition(R2_BASE, scheme, monotone=m), save_every=None
+            )
+            for m in (False, True)
+        )
         assert np.array_equal(free.x_final, safe.x_final)
 
 

@@ -1,6 +1,5 @@
 """Scenes: bundled paper examples, effects switches, observables, round trips, the level-set sampler."""
 
-
 import numpy as np
 import pytest
 
@@ -15,10 +14,17 @@ SHORT_STEPS = 60
 
 
 def test_every_paper_example_and_a_system_written_as_formulas_is_bundled():
-    assert BUNDLED == sorted([
-        "rigid_body_distinct", "rigid_body_equal", "oscillator_s0", "oscillator_z2",
-        "degenerate_example1", "degenerate_example2", "lorenz_nevir",
-    ])
+    assert BUNDLED == sorted(
+        [
+            "rigid_body_distinct",
+            "rigid_body_equal",
+            "oscillator_s0",
+            "oscillator_z2",
+            "degenerate_example1",
+            "degenerate_example2",
+            "lorenz_nevir",
+        ]
+    )
     assert "H" in load("lorenz_nevir").expressions
 
 
@@ -37,7 +43,8 @@ def test_bundled_scene_short_run_keeps_H_exact_and_never_raises_S(name):
             scale = term_scale(values[n], values[n + 1], result.system.grad_H(x[n]), x[n])
             assert abs(values[n + 1] - values[n]) <= 16 * EPS * scale, (name, n)
     assert totals["max_energy_error"] <= SHORT_STEPS * 16 * EPS * max(
-        term_scale(h[0], h[0], result.system.grad_H(x[0]), x[0]) / abs(h[0]) for x, h in zip(X, H))
+        term_scale(h[0], h[0], result.system.grad_H(x[0]), x[0]) / abs(h[0]) for x, h in zip(X, H)
+    )
 
 
 def _final_states(name):
@@ -88,8 +95,14 @@ def test_degenerate_examples_plane_y0_invariant_in_example_1_only():
         assert np.max(np.abs(sol.x[:, 1])) > 1e-3
 
 
-RIGID = dict(system="relaxing_rigid_body", parameters={"a": 0.5, "b": 1.0, "c": 1.5},
-             points=[[np.cos(1.1), 0.0, np.sin(1.1)], [0.2, 0.9, -0.3]], h=0.05, duration=5.0, figures=())
+RIGID = dict(
+    system="relaxing_rigid_body",
+    parameters={"a": 0.5, "b": 1.0, "c": 1.5},
+    points=[[np.cos(1.1), 0.0, np.sin(1.1)], [0.2, 0.9, -0.3]],
+    h=0.05,
+    duration=5.0,
+    figures=(),
+)
 
 
 @pytest.mark.parametrize("method", ["gonzalez", "rk4"])
@@ -165,11 +178,14 @@ def test_projection_needs_geomint_projected():
 
 
 # -- the level-set sampler ------------------------------------------------------------------
-@pytest.mark.parametrize("system, H0", [
-    (geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5), 0.7),
-    (geomint.systems.quartic_rigid_body(0.5, 1.0, 1.5, 0.5), 2.0),
-    (geomint.systems.degenerate_example(2), 1.3),
-])
+@pytest.mark.parametrize(
+    "system, H0",
+    [
+        (geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5), 0.7),
+        (geomint.systems.quartic_rigid_body(0.5, 1.0, 1.5, 0.5), 2.0),
+        (geomint.systems.degenerate_example(2), 1.3),
+    ],
+)
 def test_level_set_sample_lies_on_the_level_set(system, H0):
     points = level_set.sample(system, H0, 50)
     assert points.shape == (50, 3)
@@ -194,15 +210,30 @@ def test_level_set_below_the_centre_is_refused():
         level_set.sample(system, -1.0, 5)
 
 
-@pytest.mark.parametrize("system, H0, expected", [
-    (geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=1.0), 0.75,
-     {(0, 0, 1): "stable", (0, 0, -1): "stable", (0, 1, 0): "unstable", (0, -1, 0): "unstable",
-      (1, 0, 0): "unstable", (-1, 0, 0): "unstable"}),
-    (geomint.systems.dissipative_oscillator((0.0, 0.0, 1.0)), 0.5, {(0, 0, 1): "unstable", (0, 0, -1): "unstable"}),
-    (geomint.systems.dissipative_oscillator((0.0,)), 0.5, {(0, 0, 1): "neutral", (0, 0, -1): "neutral"}),
-    (geomint.systems.degenerate_example(1), 0.5,
-     {(0, 0, 1): "unstable", (0, 0, -1): "unstable", (1, 0, 0): "stable", (-1, 0, 0): "unstable"}),
-])
+@pytest.mark.parametrize(
+    "system, H0, expected",
+    [
+        (
+            geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=1.0),
+            0.75,
+            {
+                (0, 0, 1): "stable",
+                (0, 0, -1): "stable",
+                (0, 1, 0): "unstable",
+                (0, -1, 0): "unstable",
+                (1, 0, 0): "unstable",
+                (-1, 0, 0): "unstable",
+            },
+        ),
+        (geomint.systems.dissipative_oscillator((0.0, 0.0, 1.0)), 0.5, {(0, 0, 1): "unstable", (0, 0, -1): "unstable"}),
+        (geomint.systems.dissipative_oscillator((0.0,)), 0.5, {(0, 0, 1): "neutral", (0, 0, -1): "neutral"}),
+        (
+            geomint.systems.degenerate_example(1),
+            0.5,
+            {(0, 0, 1): "unstable", (0, 0, -1): "unstable", (1, 0, 0): "stable", (-1, 0, 0): "unstable"},
+        ),
+    ],
+)
 def test_equilibria_on_the_level_set_match_the_paper(system, H0, expected):
     found = analysis.equilibrium_points(system, H0, np.zeros(3))
     kinds = {tuple(int(v) for v in np.sign(np.where(np.abs(x) > 1e-6, x, 0.0))): kind for x, kind in found}
@@ -225,14 +256,26 @@ def test_a_composition_scene_names_its_base_and_serialises():
     result = run_scene(scene)
     assert result.method == geomint.Yoshida4(base=geomint.Gonzalez(max_newton_iter=20))
     summary = result.summary()
-    assert summary["method"] == {"name": "yoshida4", "monotone": False,
-                                 "base": {"name": "gonzalez", "max_newton_iter": 20, "compensated": True}}
+    assert summary["method"] == {
+        "name": "yoshida4",
+        "monotone": False,
+        "base": {"name": "gonzalez", "max_newton_iter": 20, "compensated": True},
+    }
     assert Scene.from_dict(result.scene.to_dict()) == result.scene
 
 
-DOMAIN = dict(system="domain", expressions={"H": "(x**2 + y**2)/2 + z**2", "S": "sqrt(z + 1.2)", "J": ["0", "0", "1"]},
-              parameters={}, eps=3.0, points=[[0.5, 0.0, 0.3], [0.0, 1.5, 0.2], [0.0, -3.0, 1.0]], h=0.05,
-              duration=10.0, record=tuple(OBSERVABLES), every=3, figures=())
+DOMAIN = dict(
+    system="domain",
+    expressions={"H": "(x**2 + y**2)/2 + z**2", "S": "sqrt(z + 1.2)", "J": ["0", "0", "1"]},
+    parameters={},
+    eps=3.0,
+    points=[[0.5, 0.0, 0.3], [0.0, 1.5, 0.2], [0.0, -3.0, 1.0]],
+    h=0.05,
+    duration=10.0,
+    record=tuple(OBSERVABLES),
+    every=3,
+    figures=(),
+)
 
 
 def test_trajectories_run_together_or_one_by_one_give_the_same_records_bit_for_bit(monkeypatch):

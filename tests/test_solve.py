@@ -21,10 +21,18 @@ X0 = [np.cos(1.1), 0.0, np.sin(1.1)]
         (dict(h=0.0), ValueError, r"`h` must be finite and > 0; got 0.0"),
         (dict(h=-0.1), ValueError, r"`h` must be finite and > 0; got -0.1"),
         (dict(h=np.inf), ValueError, r"`h` must be finite and > 0; got inf"),
-        (dict(t_span=(1.0, 1.0)), ValueError, r"`t_span` must satisfy t_end != t0.*got \(1.0, 1.0\)"),  # backward runs are allowed (issue 11)
+        (
+            dict(t_span=(1.0, 1.0)),
+            ValueError,
+            r"`t_span` must satisfy t_end != t0.*got \(1.0, 1.0\)",
+        ),  # backward runs are allowed (issue 11)
         (dict(t_span=(0.0, np.inf)), ValueError, r"`t_span` must be finite"),
         (dict(t_span=(0.0,)), ValueError, r"`t_span` must be a pair \(t0, t_end\)"),
-        (dict(method="euler"), ValueError, r"`method` must be an Integrator instance or one of \[.*'gonzalez', .*'rk4'.*\]; got 'euler'"),
+        (
+            dict(method="euler"),
+            ValueError,
+            r"`method` must be an Integrator instance or one of \[.*'gonzalez', .*'rk4'.*\]; got 'euler'",
+        ),
         (dict(save_every=0), ValueError, r"`save_every` must be an integer >= 1 or None; got 0"),
         (dict(save_every=2.5), ValueError, r"`save_every` must be an integer >= 1 or None; got 2.5"),
         (dict(system="body"), TypeError, r"`system` must be a geomint.MetriplecticSystem; got str"),

@@ -30,8 +30,10 @@ def test_composition_coefficients_sum_to_one_are_symmetric_and_have_negative_ste
     assert abs(math.fsum(floats) - 1.0) <= len(floats) * EPS
     assert floats == floats[::-1]
     assert min(floats) < 0.0  # real splittings above order 2 need a backward step
-    assert len(floats) == {"yoshida4": 3, "suzuki4": 5, "yoshida6": 7, "kahan_li6": 9,
-                           "suzuki_umeno8": 15, "kahan_li8": 17}[scheme]
+    assert (
+        len(floats)
+        == {"yoshida4": 3, "suzuki4": 5, "yoshida6": 7, "kahan_li6": 9, "suzuki_umeno8": 15, "kahan_li8": 17}[scheme]
+    )
 
 
 @pytest.mark.parametrize("wrapper", WRAPPERS)
@@ -74,8 +76,10 @@ def measured_order(name, method):
     system = SYSTEMS[name]()
     T, windows, floor = WINDOWS[name]
     hs = T / np.round(windows[method.order] * 2.0 ** (np.arange(5) / 2))
-    errors = [np.max(np.abs(geomint.solve(system, X0, (0.0, T), h, method=method, save_every=None).x_final
-                            - reference(name))) for h in hs]
+    errors = [
+        np.max(np.abs(geomint.solve(system, X0, (0.0, T), h, method=method, save_every=None).x_final - reference(name)))
+        for h in hs
+    ]
     return gt.observed_order(hs, errors, floor=floor), errors
 
 
@@ -84,15 +88,21 @@ METHODS = [
     ("strang", lambda name: geomint.Strang()),
     ("strang-exact", lambda name: BASES[name]()),
     *((scheme, lambda name, scheme=scheme: Composition(BASES[name](), scheme)) for scheme in sorted(SCHEMES)),
-    *((f"gonzalez-{scheme}", lambda name, scheme=scheme: Composition(geomint.Gonzalez(), scheme))
-      for scheme in sorted(SCHEMES)),
+    *(
+        (f"gonzalez-{scheme}", lambda name, scheme=scheme: Composition(geomint.Gonzalez(), scheme))
+        for scheme in sorted(SCHEMES)
+    ),
 ]
 
 
 #: Gonzalez composed to order 8 on the quartic body measures 8.15-8.18 (pre-asymptotic down to the
 #: Newton noise): the quartic body's order-8 cases use the Strang(RotorSplitting, Gonzalez) base.
-CASES = [(name, label, make) for name in sorted(SYSTEMS) for label, make in METHODS
-         if not (name == "quartic" and label in ("gonzalez-suzuki_umeno8", "gonzalez-kahan_li8"))]
+CASES = [
+    (name, label, make)
+    for name in sorted(SYSTEMS)
+    for label, make in METHODS
+    if not (name == "quartic" and label in ("gonzalez-suzuki_umeno8", "gonzalez-kahan_li8"))
+]
 
 
 @pytest.mark.parametrize("name, label, make", CASES, ids=[f"{c[1]}-{c[0]}" for c in CASES])
@@ -196,7 +206,9 @@ def test_standalone_exact_flows_on_the_hamiltonian_system():
     sol = geomint.solve(oscillator, [0.6, 0.0, 0.8], (0.0, 10.0), 0.1, method="oscillator_rotation")
     t = sol.t
     np.testing.assert_allclose(sol.x, np.stack([0.6 * np.cos(t), -0.6 * np.sin(t), 0.8 + 0 * t], axis=1), atol=1e-13)
-    rotors = [geomint.solve(body, X0, (0.0, 2.0), h, method="rotor_splitting", save_every=None) for h in (0.1, 0.05, 0.025)]
+    rotors = [
+        geomint.solve(body, X0, (0.0, 2.0), h, method="rotor_splitting", save_every=None) for h in (0.1, 0.05, 0.025)
+    ]
     errors = [np.max(np.abs(s.x_final - geomint.reference.rigid_body_exact(0.5, 1.0, 1.5, X0, 2.0))) for s in rotors]
     assert abs(np.log2(errors[1] / errors[2]) - 2) < 0.1
     assert all(abs(np.sum(s.x_final**2) - 1) <= 16 * EPS for s in rotors)  # exact in |m|
@@ -205,21 +217,35 @@ def test_standalone_exact_flows_on_the_hamiltonian_system():
 # -- invariants per step, every method ------------------------------------------------------
 def generic_methods():
     G = geomint.Gonzalez()
-    return [geomint.Lie(), geomint.Strang(), geomint.Lie(G, geomint.RK4()),
-            *(Composition(G, scheme) for scheme in sorted(SCHEMES)),
-            *(Composition(geomint.Strang(), scheme, monotone=True) for scheme in ("yoshida4", "yoshida6")),
-            geomint.Projected(), geomint.Projected(geomint.Gonzalez(), symmetric=True),
-            geomint.Projected(geomint.Yoshida4(), symmetric=True)]
+    return [
+        geomint.Lie(),
+        geomint.Strang(),
+        geomint.Lie(G, geomint.RK4()),
+        *(Composition(G, scheme) for scheme in sorted(SCHEMES)),
+        *(Composition(geomint.Strang(), scheme, monotone=True) for scheme in ("yoshida4", "yoshida6")),
+        geomint.Projected(),
+        geomint.Projected(geomint.Gonzalez(), symmetric=True),
+        geomint.Projected(geomint.Yoshida4(), symmetric=True),
+    ]
 
 
-rigid_bodies = st.builds(geomint.systems.relaxing_rigid_body, coefficients, coefficients, coefficients,
-                         eps=st.floats(0.0, 2.0))
-quartic_bodies = st.builds(geomint.systems.quartic_rigid_body, coefficients, coefficients, coefficients,
-                           st.floats(0.0, 2.0), eps=st.floats(0.0, 2.0))
+rigid_bodies = st.builds(
+    geomint.systems.relaxing_rigid_body, coefficients, coefficients, coefficients, eps=st.floats(0.0, 2.0)
+)
+quartic_bodies = st.builds(
+    geomint.systems.quartic_rigid_body,
+    coefficients,
+    coefficients,
+    coefficients,
+    st.floats(0.0, 2.0),
+    eps=st.floats(0.0, 2.0),
+)
 # coefficients away from 1e-12 and the like, which MetriplecticSystem's finite-difference check rejects
-oscillators = st.builds(geomint.systems.dissipative_oscillator,
-                        st.lists(st.sampled_from([-1.5, -0.5, 0.0, 0.25, 1.0, 2.0]), min_size=2, max_size=5),
-                        eps=st.floats(0.0, 2.0))
+oscillators = st.builds(
+    geomint.systems.dissipative_oscillator,
+    st.lists(st.sampled_from([-1.5, -0.5, 0.0, 0.25, 1.0, 2.0]), min_size=2, max_size=5),
+    eps=st.floats(0.0, 2.0),
+)
 
 
 degenerate = st.builds(geomint.systems.degenerate_example, st.sampled_from([1, 2]), eps=st.floats(0.0, 2.0))
@@ -241,16 +267,30 @@ def test_splittings_with_exact_and_explicit_sub_flows_keep_what_they_declare(dat
     """h <= 0.02: a composition's backward gradient sub-step (-1.7 h for Yoshida 4) is an implicit
     midpoint step of an anti-dissipative flow, solvable only while |gamma h lambda| < 2."""
     G = geomint.Gonzalez()
-    system, hamiltonian_part = data.draw(st.sampled_from([
-        (rigid_bodies, geomint.RigidBodyFlow()), (rigid_bodies, geomint.RotorSplitting()),
-        (quartic_bodies, geomint.RotorSplitting()), (oscillators, geomint.OscillatorRotation()),
-    ]).flatmap(lambda pair: st.tuples(pair[0], st.just(pair[1]))))
+    system, hamiltonian_part = data.draw(
+        st.sampled_from(
+            [
+                (rigid_bodies, geomint.RigidBodyFlow()),
+                (rigid_bodies, geomint.RotorSplitting()),
+                (quartic_bodies, geomint.RotorSplitting()),
+                (oscillators, geomint.OscillatorRotation()),
+            ]
+        ).flatmap(lambda pair: st.tuples(pair[0], st.just(pair[1])))
+    )
     splitting = data.draw(st.sampled_from([geomint.Lie, geomint.Strang]))(hamiltonian_part, G)
-    method = data.draw(st.sampled_from([splitting, geomint.Yoshida4(geomint.Strang(hamiltonian_part, G), monotone=True),
-                                        geomint.Projected(splitting)]))
+    method = data.draw(
+        st.sampled_from(
+            [
+                splitting,
+                geomint.Yoshida4(geomint.Strang(hamiltonian_part, G), monotone=True),
+                geomint.Projected(splitting),
+            ]
+        )
+    )
     gt.assert_step_invariants(system, method, x, h, ulps=16)
-    assert not (method.energy_exact and hamiltonian_part.name == "rotor_splitting" and
-                not isinstance(method, geomint.Projected))
+    assert not (
+        method.energy_exact and hamiltonian_part.name == "rotor_splitting" and not isinstance(method, geomint.Projected)
+    )
 
 
 def adjoint_defect(system, method, x, h):
@@ -261,20 +301,44 @@ def adjoint_defect(system, method, x, h):
     data = method.lower(system)
     for step in (h, -h):
         state[layout.STATE_ANCHOR] = np.nan  # each step anchored to H at its own start
-        out = loop.Output(np.empty(2), np.empty((2, 3)), np.empty(2), np.empty(2),
-                          np.zeros(layout.N_COUNTERS, dtype=np.int64), np.zeros(1))
+        out = loop.Output(
+            np.empty(2),
+            np.empty((2, 3)),
+            np.empty(2),
+            np.empty(2),
+            np.zeros(layout.N_COUNTERS, dtype=np.int64),
+            np.zeros(1),
+        )
         work = np.zeros(getattr(data, "slots", 1) * layout.WORK)
-        loop.run(system.model, system.eps, system.hamiltonian, data, control.Constant(0.0, step, 1, step, 1), state,
-                 work, layout.new_clock(0.0), np.array([step]), 1, out)
+        loop.run(
+            system.model,
+            system.eps,
+            system.hamiltonian,
+            data,
+            control.Constant(0.0, step, 1, step, 1),
+            state,
+            work,
+            layout.new_clock(0.0),
+            np.array([step]),
+            1,
+            out,
+        )
         assert out.counters[layout.STATUS] == 0
     return np.max(np.abs(state[:3] - x))
 
 
-@pytest.mark.parametrize("method", [
-    geomint.Strang(), geomint.Strang(geomint.RigidBodyFlow(), geomint.Gonzalez()), geomint.Yoshida6(),
-    geomint.KahanLi8(geomint.Strang(geomint.RigidBodyFlow(), geomint.Gonzalez())),
-    geomint.Projected(geomint.Gonzalez(), symmetric=True), geomint.Projected(geomint.Yoshida4(), symmetric=True),
-], ids=lambda m: repr(m)[:60])
+@pytest.mark.parametrize(
+    "method",
+    [
+        geomint.Strang(),
+        geomint.Strang(geomint.RigidBodyFlow(), geomint.Gonzalez()),
+        geomint.Yoshida6(),
+        geomint.KahanLi8(geomint.Strang(geomint.RigidBodyFlow(), geomint.Gonzalez())),
+        geomint.Projected(geomint.Gonzalez(), symmetric=True),
+        geomint.Projected(geomint.Yoshida4(), symmetric=True),
+    ],
+    ids=lambda m: repr(m)[:60],
+)
 def test_symmetric_methods_are_their_own_adjoint(method):
     # a projection never raises S, so backwards it cannot follow a dissipative flow: test it at eps = 0
     system = geomint.systems.relaxing_rigid_body(eps=0.0 if isinstance(method, geomint.Projected) else 1.0)
@@ -331,9 +395,15 @@ def test_rigid_body_flow_on_the_separatrix_and_at_equilibria(m0):
 @given(data=st.data(), x=gt.states(), h=gt.step_sizes(1e-3, 0.5))
 def test_standalone_hamiltonian_flows_keep_what_they_declare(data, x, h):
     """On eps = 0: the exact flows keep H and S, the rotor splitting keeps S (|m|) only."""
-    systems, method = data.draw(st.sampled_from([
-        (rigid_bodies, geomint.RigidBodyFlow()), (rigid_bodies, geomint.RotorSplitting()),
-        (quartic_bodies, geomint.RotorSplitting()), (oscillators, geomint.OscillatorRotation()),
-    ]))
+    systems, method = data.draw(
+        st.sampled_from(
+            [
+                (rigid_bodies, geomint.RigidBodyFlow()),
+                (rigid_bodies, geomint.RotorSplitting()),
+                (quartic_bodies, geomint.RotorSplitting()),
+                (oscillators, geomint.OscillatorRotation()),
+            ]
+        )
+    )
     system = data.draw(systems).with_effects(eps=0.0)
     gt.assert_step_invariants(system, method, x, h, ulps=16)

@@ -77,12 +77,14 @@ def test_fields_match_the_papers_equations():
     a, b, c, eps = 0.5, 1.0, 1.5, 0.7
     system = geomint.systems.relaxing_rigid_body(a, b, c, eps=eps)
     x, y, z = m = np.array([0.3, -0.4, 0.8])
-    paper = np.array([  # section 2.1, with the gradient part scaled by eps
-        (b - c) * y * z + eps * (b * y * (a - b) * x * y + c * z * (a - c) * x * z),
-        (c - a) * x * z + eps * (c * z * (b - c) * y * z + a * x * (b - a) * x * y),
-        # the paper prints the last term as b y (c - b) y x: a typo for b y (c - b) y z
-        (a - b) * x * y + eps * (a * x * (c - a) * x * z + b * y * (c - b) * y * z),
-    ])
+    paper = np.array(
+        [  # section 2.1, with the gradient part scaled by eps
+            (b - c) * y * z + eps * (b * y * (a - b) * x * y + c * z * (a - c) * x * z),
+            (c - a) * x * z + eps * (c * z * (b - c) * y * z + a * x * (b - a) * x * y),
+            # the paper prints the last term as b y (c - b) y x: a typo for b y (c - b) y z
+            (a - b) * x * y + eps * (a * x * (c - a) * x * z + b * y * (c - b) * y * z),
+        ]
+    )
     np.testing.assert_allclose(system.xi(m), paper, rtol=1e-14)
     oscillator = geomint.systems.dissipative_oscillator((0.0, 0.0, 0.5), eps=1.0)  # S = z^2/2
     np.testing.assert_allclose(oscillator.xi(m), [y + x * z * z, -x + y * z * z, -(x * x + y * y) * z], rtol=1e-14)
@@ -95,10 +97,15 @@ def test_the_effects_switches_drop_parts_of_the_field():
     np.testing.assert_array_equal(system.with_effects(eps=0).xi(x), system.xi_P(x))
 
 
-@pytest.mark.parametrize("system", [geomint.systems.relaxing_rigid_body(eps=0.4),
-                                    geomint.systems.relaxing_rigid_body(eps=0.4).with_effects(hamiltonian=False),
-                                    geomint.systems.dissipative_oscillator((0.3, 0.0, 0.5), eps=1.0)],
-                         ids=["body", "body_gradient_only", "oscillator"])
+@pytest.mark.parametrize(
+    "system",
+    [
+        geomint.systems.relaxing_rigid_body(eps=0.4),
+        geomint.systems.relaxing_rigid_body(eps=0.4).with_effects(hamiltonian=False),
+        geomint.systems.dissipative_oscillator((0.3, 0.0, 0.5), eps=1.0),
+    ],
+    ids=["body", "body_gradient_only", "oscillator"],
+)
 def test_xi_on_one_state_is_the_row_of_xi_on_many_bit_for_bit(system):
     """One state takes its own short path (what a scipy right-hand side calls); it must be the same arithmetic."""
     X = np.random.default_rng(3).normal(scale=2.0, size=(50, 3))
@@ -191,8 +198,10 @@ def test_plain_python_function_is_refused_with_a_fix():
         _oscillator(grad_H=lambda x, p: (x[0], x[1], x[2]))
 
 
-@pytest.mark.parametrize("name, returns", [("H", "a float"), ("S", "a float"), ("J", "a 3-tuple of floats"),
-                                           ("grad_S", "a 3-tuple of floats")])
+@pytest.mark.parametrize(
+    "name, returns",
+    [("H", "a float"), ("S", "a float"), ("J", "a 3-tuple of floats"), ("grad_S", "a 3-tuple of floats")],
+)
 def test_the_fix_for_a_plain_python_function_shows_an_example_of_that_function(name, returns):
     """Issue 26: a non-jitted H was shown an example of grad_H."""
     with pytest.raises(TypeError) as error:
@@ -243,12 +252,15 @@ def test_inconsistent_gradient_is_caught():
     _oscillator(grad_S=_wrong_grad_S, check=False)  # the check can be switched off
 
 
-@pytest.mark.parametrize("eps, error, match", [
-    (-0.1, ValueError, r"`eps` must be finite and >= 0; got -0.1"),
-    (float("nan"), ValueError, r"`eps` must be finite and >= 0"),
-    ("big", TypeError, r"`eps` must be a real number"),
-    (True, TypeError, r"`eps` must be a real number; got True \(bool\)"),
-])
+@pytest.mark.parametrize(
+    "eps, error, match",
+    [
+        (-0.1, ValueError, r"`eps` must be finite and >= 0; got -0.1"),
+        (float("nan"), ValueError, r"`eps` must be finite and >= 0"),
+        ("big", TypeError, r"`eps` must be a real number"),
+        (True, TypeError, r"`eps` must be a real number; got True \(bool\)"),
+    ],
+)
 def test_bad_eps(eps, error, match):
     with pytest.raises(error, match=match):
         geomint.systems.relaxing_rigid_body(eps=eps)

@@ -25,12 +25,13 @@ from geomint.run.solve import STEP_RATIO_LIMIT
 
 #: x' = y, y' = x z, z' = -x y (real Maxwell-Bloch): H = x^2/2 + z and the Casimir y^2 + z^2
 MAXWELL_BLOCH = geomint.MetriplecticSystem.from_expressions(
-    H="x**2/2 + z", S="(y**2 + z**2)/2", J=("0", "-y", "-z"), eps=0.1, name="maxwell_bloch")
+    H="x**2/2 + z", S="(y**2 + z**2)/2", J=("0", "-y", "-z"), eps=0.1, name="maxwell_bloch"
+)
 #: x' = y z, y' = x (z - a), z' = -x y (the Rikitake dynamo without friction and torque): H = (x^2 + z^2)/2 and
 #: the Casimir (y^2 - x^2)/2 - a z, bounded below on each level set of H
 RIKITAKE = geomint.MetriplecticSystem.from_expressions(
-    H="(x**2 + z**2)/2", S="(y**2 - x**2)/2 - a*z", J=("x", "-y", "a"), params={"a": 1.0}, eps=0.05,
-    name="rikitake")
+    H="(x**2 + z**2)/2", S="(y**2 - x**2)/2 - a*z", J=("x", "-y", "a"), params={"a": 1.0}, eps=0.05, name="rikitake"
+)
 M0 = [math.cos(1.1), 0.0, math.sin(1.1)]
 CASES = {
     "relaxing_rigid_body": (geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1), M0),
@@ -43,8 +44,9 @@ T = 10.0
 
 
 def _reference(system, x0):
-    return solve_ivp(lambda t, y: system.xi(y), (0.0, T), x0, method="DOP853", rtol=1e-13, atol=1e-13,
-                     dense_output=True)
+    return solve_ivp(
+        lambda t, y: system.xi(y), (0.0, T), x0, method="DOP853", rtol=1e-13, atol=1e-13, dense_output=True
+    )
 
 
 def test_the_systems_outside_the_catalogue_are_the_equations_they_name():
@@ -93,8 +95,10 @@ def test_a_named_method_that_cannot_meet_rtol_is_run_and_says_so():
     assert np.max(np.abs(_reference(system, x0).sol(sol.t).T - sol.x)) > 100 * 1e-10  # the caveat is true
     with warnings.catch_warnings():  # methods that follow the tolerance are not flagged
         warnings.simplefilter("error", AccuracyWarning)
-        for method in (geomint.Projected(geomint.DormandPrince54()),
-                       geomint.Yoshida4(geomint.Gonzalez(), monotone=True)):
+        for method in (
+            geomint.Projected(geomint.DormandPrince54()),
+            geomint.Yoshida4(geomint.Gonzalez(), monotone=True),
+        ):
             assert geomint.solve(system, x0, (0.0, 1.0), rtol=1e-10, method=method).caveats == ()
         assert geomint.solve(system, x0, (0.0, 1.0), rtol=1e-4, method="gonzalez").caveats == ()
 

@@ -3,9 +3,9 @@
 import numba
 import numpy as np
 import pytest
+from test_system import _H, _J, _S, _grad_H, _grad_S, _grad_S_array, _J_array
 
 import geomint
-from test_system import _H, _J, _J_array, _S, _grad_H, _grad_S, _grad_S_array
 
 
 @numba.njit
@@ -30,8 +30,11 @@ def _oscillator(check=False, **replace):
 
 
 def test_a_function_that_raises_at_the_sample_points_is_named_at_construction():
-    with pytest.raises(geomint.UserFunctionError, match=r"`grad_S` raised ValueError\('grad S undefined below "
-                                                        r"z = 1/2'\) at x = \[.*pass check=False"):
+    with pytest.raises(
+        geomint.UserFunctionError,
+        match=r"`grad_S` raised ValueError\('grad S undefined below "
+        r"z = 1/2'\) at x = \[.*pass check=False",
+    ):
         _oscillator(check=True, grad_S=_grad_S_raising_below_half)
 
 

@@ -14,6 +14,7 @@ constructor) and of the catalogue, from random states and step sizes:
 
 import numpy as np
 import pytest
+import zoo
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -22,13 +23,18 @@ import geomint.testing as gt
 from geomint._kernels.layout import NEWTON_FAILED
 from geomint.integrators.composition import gammas
 
-import zoo
-
 EPS = np.finfo(float).eps
 ANIMALS = zoo.everything()
 METHODS = gt.structure_preserving_methods() + [
-    geomint.Strang(), geomint.Yoshida4(), geomint.KahanLi6(), geomint.KahanLi8(), geomint.Suzuki4(),
-    geomint.SuzukiUmeno8(), geomint.Yoshida6(), geomint.Yoshida4(geomint.AVF()), geomint.Strang(geomint.Gonzalez(), geomint.AVF()),
+    geomint.Strang(),
+    geomint.Yoshida4(),
+    geomint.KahanLi6(),
+    geomint.KahanLi8(),
+    geomint.Suzuki4(),
+    geomint.SuzukiUmeno8(),
+    geomint.Yoshida6(),
+    geomint.Yoshida4(geomint.AVF()),
+    geomint.Strang(geomint.Gonzalez(), geomint.AVF()),
 ]
 METHODS = list({repr(m): m for m in METHODS}.values())
 
@@ -66,8 +72,7 @@ def stiffness(system, x):
     """The largest |eigenvalue| of the field's Jacobian at ``x`` (central differences)."""
     x = np.asarray(x, dtype=float)
     delta = 1e-6 * max(1.0, float(np.max(np.abs(x))))
-    columns = [(np.asarray(system.xi(x + e)) - np.asarray(system.xi(x - e))) / (2 * delta)
-               for e in np.eye(3) * delta]
+    columns = [(np.asarray(system.xi(x + e)) - np.asarray(system.xi(x - e))) / (2 * delta) for e in np.eye(3) * delta]
     return float(np.max(np.abs(np.linalg.eigvals(np.column_stack(columns)))))
 
 
@@ -98,9 +103,14 @@ def test_every_step_keeps_H_and_does_not_raise_S(animal, method):
 
 
 @pytest.mark.xfail(strict=True, reason="known limit (docs/hard_cases.md): a coordinate far below the others")
-@pytest.mark.parametrize(("name", "x0"), [("lorenz_nevir", (0.0, 7.23284551e-138, 0.0)),
-                                          ("lorenz_nevir", (0.0, 1e-60, 0.0)),
-                                          ("lorenz_nevir", (0.0, 1.4302192e-262, 4.9406565e-324))])
+@pytest.mark.parametrize(
+    ("name", "x0"),
+    [
+        ("lorenz_nevir", (0.0, 7.23284551e-138, 0.0)),
+        ("lorenz_nevir", (0.0, 1e-60, 0.0)),
+        ("lorenz_nevir", (0.0, 1.4302192e-262, 4.9406565e-324)),
+    ],
+)
 def test_coordinates_far_below_the_others_are_a_known_limit(name, x0):
     """Found by hypothesis: with the quadratic terms of H below ~1e-110 of its linear ones, the dissipative z
     increment is lost and H moves by ~6 % of its terms.  Strict: this fails the suite once the limit is lifted."""
@@ -110,9 +120,14 @@ def test_coordinates_far_below_the_others_are_a_known_limit(name, x0):
     assert sol.success and not per_step_violations(animal, sol, method)
 
 
-@pytest.mark.parametrize(("name", "monotone", "x0"), [
-    ("coupled_rigid_body", True, (1.0, 1.0, 1.125)), ("quartic_rigid_body", False, (0.0, 1.0, 1.1875)),
-    ("quartic_rigid_body", False, (0.0, 1.125, 1.125))])
+@pytest.mark.parametrize(
+    ("name", "monotone", "x0"),
+    [
+        ("coupled_rigid_body", True, (1.0, 1.0, 1.125)),
+        ("quartic_rigid_body", False, (0.0, 1.0, 1.1875)),
+        ("quartic_rigid_body", False, (0.0, 1.125, 1.125)),
+    ],
+)
 def test_yoshida4_stops_only_in_its_documented_limit(name, monotone, x0):
     """Cases hypothesis found at h = 0.09375: the backward sub-step (1.70 h) has no root near the flow, inside
     the documented band; at h = 0.05 (below it) the same starts run."""
@@ -127,8 +142,15 @@ def test_yoshida4_stops_only_in_its_documented_limit(name, monotone, x0):
 
 #: the methods whose runs must never fail on the zoo (issue 9): the discrete gradients of
 #: Gonzalez type and the splittings and compositions of them
-ROBUST = [geomint.Gonzalez(), geomint.AVF(), geomint.DampedGonzalez(), geomint.Strang(), geomint.Yoshida4(),
-          geomint.KahanLi8(), geomint.Projected(geomint.Gonzalez())]
+ROBUST = [
+    geomint.Gonzalez(),
+    geomint.AVF(),
+    geomint.DampedGonzalez(),
+    geomint.Strang(),
+    geomint.Yoshida4(),
+    geomint.KahanLi8(),
+    geomint.Projected(geomint.Gonzalez()),
+]
 
 
 @pytest.fixture(scope="module")
@@ -193,8 +215,14 @@ def test_split_and_composed_steps_do_not_drift(method):
 def test_itoh_abe_keeps_H_per_step_under_stiffness(method):
     """The stiff relaxing body (eps = 1e3, h = 0.1): every step within 16 ulp of the terms of H."""
     body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=1e3)
-    animal = zoo.Animal(body, zoo._box((-1, -1, -1), (1, 1, 1)), (0.1, 0.1), zoo._quadratic_terms((0.5, 1.0, 1.5)),
-                        lambda x: 0.5 * float(x @ x), 10.0)
+    animal = zoo.Animal(
+        body,
+        zoo._box((-1, -1, -1), (1, 1, 1)),
+        (0.1, 0.1),
+        zoo._quadratic_terms((0.5, 1.0, 1.5)),
+        lambda x: 0.5 * float(x @ x),
+        10.0,
+    )
     sol = geomint.solve(body, [np.cos(1.1), 0.0, np.sin(1.1)], (0.0, 10.0), 0.1, method=method)
     assert sol.success, sol.message
     assert not per_step_violations(animal, sol, method)
@@ -210,7 +238,9 @@ def test_a_function_turning_nan_is_reported_with_the_states_before_it(method, sa
     that step (a sub-step reaching further than its step may stop it up to 2 steps earlier), names the
     function, keeps every state before it bit for bit and counts the rows it keeps."""
     h, y0 = 0.1, 0.05
-    clean = geomint.solve(zoo.drifter(radius=1e300), [0.0, y0, 0.0], (0.0, 8.0), h, method=method, save_every=save_every)
+    clean = geomint.solve(
+        zoo.drifter(radius=1e300), [0.0, y0, 0.0], (0.0, 8.0), h, method=method, save_every=save_every
+    )
     sol = geomint.solve(zoo.drifter(radius=5.0), [0.0, y0, 0.0], (0.0, 8.0), h, method=method, save_every=save_every)
     crossing = int(np.ceil((5.0 - y0) / h))  # the first state beyond the radius
     assert sol.status == -2 and not sol.success, sol.message
@@ -221,12 +251,16 @@ def test_a_function_turning_nan_is_reported_with_the_states_before_it(method, sa
     kept = len(sol.t) - 1  # the last row is the last good state, saved at the failure
     np.testing.assert_array_equal(sol.x[:kept], clean.x[:kept])
     assert sol.t[-1] == pytest.approx((sol.failed_step - 1) * h)
-    np.testing.assert_array_equal(sol.x[-1], clean.x[:][np.searchsorted(clean.t, sol.t[-1] - 1e-9)] if save_every == 1
-                                  else sol.x[-1])
+    np.testing.assert_array_equal(
+        sol.x[-1], clean.x[:][np.searchsorted(clean.t, sol.t[-1] - 1e-9)] if save_every == 1 else sol.x[-1]
+    )
 
 
-@pytest.mark.parametrize("method", [m for m in gt.structure_preserving_methods()
-                                    if isinstance(m, geomint.integrators.DiscreteGradient)], ids=_ids)
+@pytest.mark.parametrize(
+    "method",
+    [m for m in gt.structure_preserving_methods() if isinstance(m, geomint.integrators.DiscreteGradient)],
+    ids=_ids,
+)
 def test_steps_settling_onto_an_attractor_take_few_newton_iterations(method):
     """2 10^4 steps of the relaxing body into its stable pole (|dx| << |x|, then |dx| ~ 0): fewer than
     2 Newton iterations per step on average.  (Itoh-Abe once converged there to roots keeping H to

@@ -53,7 +53,13 @@ def _ln_J(x, p):
 
 def lorenz_nevir(sigma=10.0, r=28.0, eps=0.01):
     return geomint.MetriplecticSystem(
-        H=_ln_H, grad_H=_ln_grad_H, S=_ln_S, grad_S=_ln_grad_S, J=_ln_J, eps=eps, params=[sigma, r],
+        H=_ln_H,
+        grad_H=_ln_grad_H,
+        S=_ln_S,
+        grad_S=_ln_grad_S,
+        J=_ln_J,
+        eps=eps,
+        params=[sigma, r],
         name="lorenz_nevir",
     )
 
@@ -87,8 +93,14 @@ def _identity_J(m, p):
 
 def coupled_rigid_body(a=0.5, b=1.0, c=1.5, k=0.7, eps=0.5):
     return geomint.MetriplecticSystem(
-        H=_crb_H, grad_H=_crb_grad_H, S=_sphere_S, grad_S=_sphere_grad_S, J=_identity_J, eps=eps,
-        params=[a, b, c, k], name="coupled_rigid_body",
+        H=_crb_H,
+        grad_H=_crb_grad_H,
+        S=_sphere_S,
+        grad_S=_sphere_grad_S,
+        J=_identity_J,
+        eps=eps,
+        params=[a, b, c, k],
+        name="coupled_rigid_body",
     )
 
 
@@ -96,7 +108,9 @@ def coupled_rigid_body(a=0.5, b=1.0, c=1.5, k=0.7, eps=0.5):
 # any J = phi grad S since curl J = grad phi x grad S is orthogonal to grad S) -------------------------
 @numba.njit(cache=True)
 def _np_H(x, p):
-    return 0.5 * (p[0] * x[0] * x[0] + p[1] * x[1] * x[1] + p[2] * x[2] * x[2]) + 0.3 * np.cosh(x[0]) + 0.2 * np.exp(x[1])
+    return (
+        0.5 * (p[0] * x[0] * x[0] + p[1] * x[1] * x[1] + p[2] * x[2] * x[2]) + 0.3 * np.cosh(x[0]) + 0.2 * np.exp(x[1])
+    )
 
 
 @numba.njit(cache=True)
@@ -122,7 +136,13 @@ def _np_J(x, p):
 
 def cosh_exp_system(a=1.0, b=0.7, c=1.3, eps=0.3):
     return geomint.MetriplecticSystem(
-        H=_np_H, grad_H=_np_grad_H, S=_np_S, grad_S=_np_grad_S, J=_np_J, eps=eps, params=[a, b, c],
+        H=_np_H,
+        grad_H=_np_grad_H,
+        S=_np_S,
+        grad_S=_np_grad_S,
+        J=_np_J,
+        eps=eps,
+        params=[a, b, c],
         name="cosh_exp",
     )
 
@@ -155,7 +175,13 @@ def _vertical_J(x, p):
 
 def offset_oscillator(center=30.0, eps=0.5):
     return geomint.MetriplecticSystem(
-        H=_off_H, grad_H=_off_grad_H, S=_z2_S, grad_S=_z2_grad_S, J=_vertical_J, eps=eps, params=[center],
+        H=_off_H,
+        grad_H=_off_grad_H,
+        S=_z2_S,
+        grad_S=_z2_grad_S,
+        J=_vertical_J,
+        eps=eps,
+        params=[center],
         name="offset_oscillator",
     )
 
@@ -173,7 +199,13 @@ def _hyp_grad_H(x, p):
 
 def hyperbolic_oscillator(eps=0.5):
     return geomint.MetriplecticSystem(
-        H=_hyp_H, grad_H=_hyp_grad_H, S=_z2_S, grad_S=_z2_grad_S, J=_vertical_J, eps=eps, name="hyperbolic",
+        H=_hyp_H,
+        grad_H=_hyp_grad_H,
+        S=_z2_S,
+        grad_S=_z2_grad_S,
+        J=_vertical_J,
+        eps=eps,
+        name="hyperbolic",
     )
 
 
@@ -244,9 +276,12 @@ def _quadratic_terms(coefficients):
 
 def _ln(sigma=10.0, r=28.0):
     return Animal(
-        lorenz_nevir(sigma, r), _box((-15.0, -20.0, 0.0), (15.0, 20.0, 50.0)), (2e-3, 1e-2),
+        lorenz_nevir(sigma, r),
+        _box((-15.0, -20.0, 0.0), (15.0, 20.0, 50.0)),
+        (2e-3, 1e-2),
         lambda x: _abs(0.5 * x[1] ** 2, 0.5 * x[2] ** 2, r * x[2]),
-        lambda x: _abs(0.5 * x[0] ** 2, sigma * x[2]), 6.0,
+        lambda x: _abs(0.5 * x[0] ** 2, sigma * x[2]),
+        6.0,
     )
 
 
@@ -256,24 +291,36 @@ def zoo():
     return [
         _ln(),
         Animal(
-            coupled_rigid_body(*crb), Box((-1.2,) * 3, (1.2,) * 3, lambda x: np.linalg.norm(x) > 0.05),
+            coupled_rigid_body(*crb),
+            Box((-1.2,) * 3, (1.2,) * 3, lambda x: np.linalg.norm(x) > 0.05),
             (1e-3, 0.1),
             lambda x: _quadratic_terms(crb[:3])(x) + abs(crb[3] * x[0] ** 2 * x[1] ** 2),
-            lambda x: 0.5 * float(x @ x), 20.0,
+            lambda x: 0.5 * float(x @ x),
+            20.0,
         ),
         Animal(
-            cosh_exp_system(), _box((-1.5,) * 3, (1.5,) * 3), (1e-3, 0.1),
+            cosh_exp_system(),
+            _box((-1.5,) * 3, (1.5,) * 3),
+            (1e-3, 0.1),
             lambda x: _quadratic_terms((1.0, 0.7, 1.3))(x) + 0.3 * np.cosh(x[0]) + 0.2 * np.exp(x[1]),
-            lambda x: 0.5 * (x[0] ** 2 + x[1] ** 2) + np.cosh(x[2]), 20.0,
+            lambda x: 0.5 * (x[0] ** 2 + x[1] ** 2) + np.cosh(x[2]),
+            20.0,
         ),
         Animal(
-            offset_oscillator(), _box((29.0, -1.0, -1.0), (31.0, 1.0, 1.0)), (1e-3, 0.1),
+            offset_oscillator(),
+            _box((29.0, -1.0, -1.0), (31.0, 1.0, 1.0)),
+            (1e-3, 0.1),
             lambda x: _abs(0.5 * x[0] ** 2, 0.5 * x[1] ** 2, 0.5 * x[2] ** 2, 30.0 * x[0], 450.0),
-            lambda x: 0.5 * x[2] ** 2, 20.0,
+            lambda x: 0.5 * x[2] ** 2,
+            20.0,
         ),
         Animal(
-            hyperbolic_oscillator(), Box((-2.0,) * 3, (2.0,) * 3, lambda x: np.linalg.norm(x[:2]) > 0.05),
-            (1e-3, 0.1), _quadratic_terms((1.0, 1.0, 1.0)), lambda x: 0.5 * x[2] ** 2, 20.0,
+            hyperbolic_oscillator(),
+            Box((-2.0,) * 3, (2.0,) * 3, lambda x: np.linalg.norm(x[:2]) > 0.05),
+            (1e-3, 0.1),
+            _quadratic_terms((1.0, 1.0, 1.0)),
+            lambda x: 0.5 * x[2] ** 2,
+            20.0,
         ),
     ]
 
@@ -283,16 +330,38 @@ def catalogue():
     c = geomint.systems
     sphere = lambda x: 0.5 * float(x @ x)  # noqa: E731
     return [
-        Animal(c.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.5), _box((-1.2,) * 3, (1.2,) * 3), (1e-3, 0.2),
-               _quadratic_terms((0.5, 1.0, 1.5)), sphere, 20.0),
-        Animal(c.quartic_rigid_body(eps=0.5), _box((-1.2,) * 3, (1.2,) * 3), (1e-3, 0.1),
-               lambda x: _quadratic_terms((0.5, 1.0, 1.5))(x) + 0.125 * float(np.sum(np.asarray(x) ** 4)),
-               lambda x: sphere(x) + 0.25 * float(x @ x) ** 2, 20.0),
-        Animal(c.dissipative_oscillator((0.0, 0.0, 0.5), eps=1.0), _box((-1.2,) * 3, (1.2,) * 3), (1e-3, 0.2),
-               sphere, lambda x: 0.5 * x[2] ** 2, 20.0),
-        Animal(c.degenerate_example(2, eps=1.0), _box((-1.2,) * 3, (1.2,) * 3), (1e-3, 0.2),
-               lambda x: _abs(0.5 * x[0] ** 2, 0.5 * x[1] ** 2, x[1], 0.5, 0.5 * x[2] ** 2),
-               lambda x: 0.5 * x[2] ** 2, 20.0),
+        Animal(
+            c.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.5),
+            _box((-1.2,) * 3, (1.2,) * 3),
+            (1e-3, 0.2),
+            _quadratic_terms((0.5, 1.0, 1.5)),
+            sphere,
+            20.0,
+        ),
+        Animal(
+            c.quartic_rigid_body(eps=0.5),
+            _box((-1.2,) * 3, (1.2,) * 3),
+            (1e-3, 0.1),
+            lambda x: _quadratic_terms((0.5, 1.0, 1.5))(x) + 0.125 * float(np.sum(np.asarray(x) ** 4)),
+            lambda x: sphere(x) + 0.25 * float(x @ x) ** 2,
+            20.0,
+        ),
+        Animal(
+            c.dissipative_oscillator((0.0, 0.0, 0.5), eps=1.0),
+            _box((-1.2,) * 3, (1.2,) * 3),
+            (1e-3, 0.2),
+            sphere,
+            lambda x: 0.5 * x[2] ** 2,
+            20.0,
+        ),
+        Animal(
+            c.degenerate_example(2, eps=1.0),
+            _box((-1.2,) * 3, (1.2,) * 3),
+            (1e-3, 0.2),
+            lambda x: _abs(0.5 * x[0] ** 2, 0.5 * x[1] ** 2, x[1], 0.5, 0.5 * x[2] ** 2),
+            lambda x: 0.5 * x[2] ** 2,
+            20.0,
+        ),
     ]
 
 
@@ -329,6 +398,12 @@ def _drift_J(x, p):
 def drifter(radius=5.0, eps=0.5):
     """``H = z``, ``S = x``, ``J = (1, 0, 0)``: ``x' = (-eps, 1, 0)``; H and grad H are NaN beyond ``|y| = radius``."""
     return geomint.MetriplecticSystem(
-        H=_drift_H, grad_H=_drift_grad_H, S=_drift_S, grad_S=_drift_grad_S, J=_drift_J, eps=eps, params=[radius],
+        H=_drift_H,
+        grad_H=_drift_grad_H,
+        S=_drift_S,
+        grad_S=_drift_grad_S,
+        J=_drift_J,
+        eps=eps,
+        params=[radius],
         name="drifter",
     )

@@ -17,8 +17,9 @@ from numba.core.errors import NumbaExperimentalFeatureWarning
 
 from .._cache import ROOT, kernel_folder
 
-warnings.filterwarnings("ignore", message=".*First-class function type feature is experimental",
-                        category=NumbaExperimentalFeatureWarning)
+warnings.filterwarnings(
+    "ignore", message=".*First-class function type feature is experimental", category=NumbaExperimentalFeatureWarning
+)
 
 
 def _drop_stale_cache():

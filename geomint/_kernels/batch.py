@@ -19,8 +19,28 @@ from .loop import Output, run
 
 
 @njit(cache=CACHE, nogil=True, error_model="numpy")
-def run_batch(model, params, origins, eps, hamiltonian, method, control, states, works, clocks, stops, budget, t, x,
-              H, S, counters, residuals, first, stride):
+def run_batch(
+    model,
+    params,
+    origins,
+    eps,
+    hamiltonian,
+    method,
+    control,
+    states,
+    works,
+    clocks,
+    stops,
+    budget,
+    t,
+    x,
+    H,
+    S,
+    counters,
+    residuals,
+    first,
+    stride,
+):
     """At most ``budget`` attempted steps (``loop.run``) of trajectories ``first, first + stride, ...`` whose
     status is OK and which have stops left, each with its own ``params[i]``, ``origins[i]``, ``eps[i]`` and
     clock ``clocks[i]``.  An adaptive clock whose step ``clocks[i, C_H]`` is 0 starts with
@@ -40,5 +60,9 @@ def run_batch(model, params, origins, eps, hamiltonian, method, control, states,
 
 def empty_outputs(n, rows):
     """Output arrays for ``n`` trajectories of ``rows`` saved states (times and states NaN until written)."""
-    return (np.full((n, rows), np.nan), np.full((n, rows, 3), np.nan), np.full((n, rows), np.nan),
-            np.full((n, rows), np.nan))
+    return (
+        np.full((n, rows), np.nan),
+        np.full((n, rows, 3), np.nan),
+        np.full((n, rows), np.nan),
+        np.full((n, rows), np.nan),
+    )

@@ -52,11 +52,46 @@ from .dg_step import discrete_gradient_step
 from .exact_flows import rigid_body_flow, rotation, rotor_splitting
 from .jit import hot, inner
 from .layout import (
-    EPS, GRADIENT, HAMILTONIAN, HEADER, KIND_MARKERS, LEAF_DISCRETE_GRADIENT, LEAF_RIGID_BODY_FLOW, LEAF_RK4,
-    LEAF_ROTATION, LEAF_ROTOR_SPLITTING, NEWTON_FAILED, NO_PROJECTION, NON_FINITE, OK, P_ANCHOR, P_GAMMAS,
-    P_MAX_ITER, P_MONOTONE, P_PROJECTION, P_STAGES, PROJECTION_FAILED, R_COEFF_AT, R_COEFF_COUNT, R_COMPENSATED,
-    R_DAMPED, R_FLOW, R_KIND, R_LEAF, R_MAX_ITER, ROW, SYMMETRIC, UNKNOWN, WORK, Damped, RigidBodyFlowLeaf, RK4Leaf,
-    RotationLeaf, RotorSplittingLeaf, StepResult, Undamped,
+    EPS,
+    GRADIENT,
+    HAMILTONIAN,
+    HEADER,
+    KIND_MARKERS,
+    LEAF_DISCRETE_GRADIENT,
+    LEAF_RIGID_BODY_FLOW,
+    LEAF_RK4,
+    LEAF_ROTATION,
+    LEAF_ROTOR_SPLITTING,
+    NEWTON_FAILED,
+    NO_PROJECTION,
+    NON_FINITE,
+    OK,
+    P_ANCHOR,
+    P_GAMMAS,
+    P_MAX_ITER,
+    P_MONOTONE,
+    P_PROJECTION,
+    P_STAGES,
+    PROJECTION_FAILED,
+    R_COEFF_AT,
+    R_COEFF_COUNT,
+    R_COMPENSATED,
+    R_DAMPED,
+    R_FLOW,
+    R_KIND,
+    R_LEAF,
+    R_MAX_ITER,
+    ROW,
+    SYMMETRIC,
+    UNKNOWN,
+    WORK,
+    Damped,
+    RigidBodyFlowLeaf,
+    RK4Leaf,
+    RotationLeaf,
+    RotorSplittingLeaf,
+    StepResult,
+    Undamped,
 )
 from .projection import project_both, project_energy, project_step, rise_tolerance
 from .roundoff import origin_terms, term_scale
@@ -92,14 +127,26 @@ def _leaf_step_for(present):
         if not active or h == 0.0:
             return StepResult(x, comp, H_x, S_x, OK, 0, 0, 0.0, UNKNOWN)
         at = iopts[row + R_COEFF_AT]
-        data = coeffs[at: at + iopts[row + R_COEFF_COUNT]]
+        data = coeffs[at : at + iopts[row + R_COEFF_COUNT]]
         if rk4 and leaf == LEAF_RK4:
             return rk4_step(model, eps, hamiltonian, buf, x, comp, h)
         if implicit and leaf == LEAF_DISCRETE_GRADIENT:
             return discrete_gradient_step(
-                stage_kind(uses, iopts[row + R_KIND]), iopts[row + R_MAX_ITER],
-                stage_damped(uses, iopts[row + R_DAMPED] != 0), iopts[row + R_COMPENSATED] != 0,
-                data, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, work,
+                stage_kind(uses, iopts[row + R_KIND]),
+                iopts[row + R_MAX_ITER],
+                stage_damped(uses, iopts[row + R_DAMPED] != 0),
+                iopts[row + R_COMPENSATED] != 0,
+                data,
+                model,
+                eps,
+                hamiltonian,
+                buf,
+                x,
+                comp,
+                H_x,
+                S_x,
+                h,
+                work,
             )
         if rigid_body and leaf == LEAF_RIGID_BODY_FLOW:
             return _flowed(x, comp, rigid_body_flow(data[0], data[1], data[2], x, h), 0)
@@ -109,6 +156,7 @@ def _leaf_step_for(present):
             return _flowed(x, comp, rotation(model.J, model.params, buf, x, h), 1)
         # not reached: ``Program.lower`` lists in ``uses`` every leaf a row of the program can run
         return StepResult(x, comp, np.nan, np.nan, NON_FINITE, 0, 0, 0.0, UNKNOWN)
+
     return leaf_step
 
 
@@ -168,8 +216,22 @@ def _composition(uses, coeffs, iopts, model, eps, hamiltonian, buf, x, comp, H_x
     for g in range(n_gamma):
         for s in range(n_stages):
             slot = (g * n_stages + s) * WORK
-            r = leaf_step(uses, coeffs, iopts, HEADER + ROW * s, model, eps, hamiltonian, buf, x, comp, H_x, S_x,
-                          coeffs[g] * coeffs[n_gamma + s] * h, work[slot: slot + WORK])
+            r = leaf_step(
+                uses,
+                coeffs,
+                iopts,
+                HEADER + ROW * s,
+                model,
+                eps,
+                hamiltonian,
+                buf,
+                x,
+                comp,
+                H_x,
+                S_x,
+                coeffs[g] * coeffs[n_gamma + s] * h,
+                work[slot : slot + WORK],
+            )
             iterations += r.iterations
             evaluations += r.evaluations
             residual = r.residual
@@ -260,8 +322,9 @@ def composed_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, 
     if projection == SYMMETRIC:
         r = _symmetric_projection(method.uses, coeffs, iopts, model, eps, hamiltonian, buf, x, H_anchor, h, work)
     else:
-        r, rises = _composition(method.uses, coeffs, iopts, model, eps, hamiltonian, buf, x, comp, H_start, S_x, h,
-                                rise_ulps, work)
+        r, rises = _composition(
+            method.uses, coeffs, iopts, model, eps, hamiltonian, buf, x, comp, H_start, S_x, h, rise_ulps, work
+        )
     if r.status != OK:
         return r, rises, 0
     y, comp_y, H_y, S_y = r.x, r.comp, r.H, r.S
@@ -270,8 +333,22 @@ def composed_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, 
     if iopts[P_MONOTONE] and S_y > S_x:
         row = HEADER + ROW * iopts[P_STAGES]
         slot = iopts[P_GAMMAS] * iopts[P_STAGES] * WORK
-        r = leaf_step(method.uses, coeffs, iopts, row, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h,
-                      work[slot: slot + WORK])
+        r = leaf_step(
+            method.uses,
+            coeffs,
+            iopts,
+            row,
+            model,
+            eps,
+            hamiltonian,
+            buf,
+            x,
+            comp,
+            H_anchor,
+            S_x,
+            h,
+            work[slot : slot + WORK],
+        )
         iterations += r.iterations
         evaluations += r.evaluations
         fired = 1
@@ -284,7 +361,11 @@ def composed_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, 
         evaluations += ev
         comp_y = ZERO
         if not projected:
-            return StepResult(y, comp_y, H_y, S_y, PROJECTION_FAILED, iterations, evaluations, residual, UNKNOWN), rises, fired
+            return (
+                StepResult(y, comp_y, H_y, S_y, PROJECTION_FAILED, iterations, evaluations, residual, UNKNOWN),
+                rises,
+                fired,
+            )
     elif iopts[P_ANCHOR]:
         z, H_y, S_y, ev = pull_back(model, buf, y, H_y, S_y, H_anchor, max(S_x, S_y), max_iter)
         evaluations += ev

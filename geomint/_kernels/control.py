@@ -65,8 +65,23 @@ from .composition import composed_step
 from .field import field
 from .jit import inner
 from .layout import (
-    C_BASE, C_COUNT, C_ERROR, C_H, C_REACH, C_STOP, C_T, DOUBLING, EPS, OK, RK4_REFERENCE, UNKNOWN, ComposedStep,
-    DiscreteGradientStep, EmbeddedPairStep, RungeKutta4, StepResult,
+    C_BASE,
+    C_COUNT,
+    C_ERROR,
+    C_H,
+    C_REACH,
+    C_STOP,
+    C_T,
+    DOUBLING,
+    EPS,
+    OK,
+    RK4_REFERENCE,
+    UNKNOWN,
+    ComposedStep,
+    DiscreteGradientStep,
+    EmbeddedPairStep,
+    RungeKutta4,
+    StepResult,
 )
 from .newton import seed_predictor
 from .runge_kutta import pair_step, rk4_increment
@@ -169,7 +184,7 @@ def _steps(method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, 
             break
         if k == 0:
             full = r
-    e = scale(1.0 / (2.0 ** control.order - 1.0), sub(r.x, full.x)) if doubling else ZERO
+    e = scale(1.0 / (2.0**control.order - 1.0), sub(r.x, full.x)) if doubling else ZERO
     return StepResult(r.x, r.comp, r.H, r.S, r.status, iterations, evaluations, r.residual, r.culprit), e
 
 
@@ -186,8 +201,21 @@ def _estimated_discrete_gradient(method, control, model, eps, hamiltonian, buf, 
     if against_rk4:
         reference = rk4_increment(model, eps, hamiltonian, buf, x, h)
         seed_predictor(work, reference, h)
-    r, e = _steps(method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work,
-                  control.adaptive and not against_rk4)
+    r, e = _steps(
+        method,
+        control,
+        model,
+        eps,
+        hamiltonian,
+        buf,
+        x,
+        comp,
+        anchor,
+        S_x,
+        h,
+        work,
+        control.adaptive and not against_rk4,
+    )
     if against_rk4:
         e = sub(sub(r.x, x), reference)
         r = StepResult(r.x, r.comp, r.H, r.S, r.status, r.iterations, r.evaluations + 4, r.residual, r.culprit)
@@ -200,8 +228,12 @@ def _estimated_by_doubling(method, control, model, eps, hamiltonian, buf, x, com
     return r, error_norm(e, ZERO, x, r.x, control.rtol, control.atol, False) if control.adaptive else 0.0
 
 
-_ESTIMATED = {EmbeddedPairStep: _estimated_pair, DiscreteGradientStep: _estimated_discrete_gradient,
-              RungeKutta4: _estimated_by_doubling, ComposedStep: _estimated_by_doubling}
+_ESTIMATED = {
+    EmbeddedPairStep: _estimated_pair,
+    DiscreteGradientStep: _estimated_discrete_gradient,
+    RungeKutta4: _estimated_by_doubling,
+    ComposedStep: _estimated_by_doubling,
+}
 
 
 def estimated_step(method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work):
@@ -249,8 +281,13 @@ def first_step(model, eps, hamiltonian, x0, t0, t_end, control):
     d0, d1 = np.sqrt(d0 / 3.0), np.sqrt(d1 / 3.0)
     h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
     h0 = min(h0, span)
-    f1 = field(model, eps, hamiltonian, buf, (x[0] + direction * h0 * f0[0], x[1] + direction * h0 * f0[1],
-                                              x[2] + direction * h0 * f0[2]))
+    f1 = field(
+        model,
+        eps,
+        hamiltonian,
+        buf,
+        (x[0] + direction * h0 * f0[0], x[1] + direction * h0 * f0[1], x[2] + direction * h0 * f0[2]),
+    )
     d2 = np.inf
     if is_finite(f1):
         d2 = 0.0
@@ -319,8 +356,9 @@ def _constant_attempt(control, method, model, eps, hamiltonian, buf, x, comp, an
 
 @njit(inline="always")
 def _counting_attempt(control, method, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work):
-    r, rises, fired = composed_step(method, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work,
-                                    control.rise_ulps)
+    r, rises, fired = composed_step(
+        method, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work, control.rise_ulps
+    )
     return r, 0.0, rises, fired
 
 
@@ -374,13 +412,25 @@ def _control_start(control, model, eps, hamiltonian, x0, clock, t_end):
         clock[C_H] = first_step(model, eps, hamiltonian, x0, clock[C_T], t_end, control)
 
 
-_CONSTANT = dict(traits=_constant_traits, now=_constant_now, propose=_constant_propose, attempt=_constant_attempt,
-                 accept=_constant_accept, start=_constant_start)
+_CONSTANT = dict(
+    traits=_constant_traits,
+    now=_constant_now,
+    propose=_constant_propose,
+    attempt=_constant_attempt,
+    accept=_constant_accept,
+    start=_constant_start,
+)
 _CONTROLLERS = {
     Constant: _CONSTANT,
     Counting: dict(_CONSTANT, traits=_counting_traits, attempt=_counting_attempt),
-    Control: dict(traits=_control_traits, now=_control_now, propose=_control_propose, attempt=_control_attempt,
-                  accept=_control_accept, start=_control_start),
+    Control: dict(
+        traits=_control_traits,
+        now=_control_now,
+        propose=_control_propose,
+        attempt=_control_attempt,
+        accept=_control_accept,
+        start=_control_start,
+    ),
 }
 
 
@@ -406,14 +456,16 @@ def propose(control, clock, t_now, target):
 def attempt(control, method, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work):
     """One attempt of ``method``: ``(StepResult, err, sub-steps raising S, safeguard fired)``, ``err`` the error
     norm (0 without error control), the counts 0 but for ``Counting``."""
-    return _CONTROLLERS[type(control)]["attempt"](control, method, model, eps, hamiltonian, buf, x, comp, anchor,
-                                                  S_x, h, work)
+    return _CONTROLLERS[type(control)]["attempt"](
+        control, method, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work
+    )
 
 
 def accept(control, clock, t_now, h, err, landing, target, exponent, after_rejection):
     """Advance ``clock`` past an accepted step of ``h`` and choose the next; returns the new time."""
-    return _CONTROLLERS[type(control)]["accept"](control, clock, t_now, h, err, landing, target, exponent,
-                                                 after_rejection)
+    return _CONTROLLERS[type(control)]["accept"](
+        control, clock, t_now, h, err, landing, target, exponent, after_rejection
+    )
 
 
 def start(control, model, eps, hamiltonian, x0, clock, t_end):
@@ -442,19 +494,25 @@ def _propose_typed(control, clock, t_now, target):
 @overload(attempt, inline="always")
 def _attempt_typed(control, method, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work):
     impl = _CONTROLLERS[control.instance_class]["attempt"]
-    return lambda control, method, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work: impl(control, method, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work)
+    return lambda control, method, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work: impl(
+        control, method, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work
+    )
 
 
 @overload(accept, inline="always")
 def _accept_typed(control, clock, t_now, h, err, landing, target, exponent, after_rejection):
     impl = _CONTROLLERS[control.instance_class]["accept"]
-    return lambda control, clock, t_now, h, err, landing, target, exponent, after_rejection: impl(control, clock, t_now, h, err, landing, target, exponent, after_rejection)
+    return lambda control, clock, t_now, h, err, landing, target, exponent, after_rejection: impl(
+        control, clock, t_now, h, err, landing, target, exponent, after_rejection
+    )
 
 
 @overload(start, inline="always")
 def _start_typed(control, model, eps, hamiltonian, x0, clock, t_end):
     impl = _CONTROLLERS[control.instance_class]["start"]
-    return lambda control, model, eps, hamiltonian, x0, clock, t_end: impl(control, model, eps, hamiltonian, x0, clock, t_end)
+    return lambda control, model, eps, hamiltonian, x0, clock, t_end: impl(
+        control, model, eps, hamiltonian, x0, clock, t_end
+    )
 
 
 @inner
@@ -469,6 +527,6 @@ def on_rejection(clock, h, err, exponent, streak_h, streak_err):
         clock[C_REACH] = 0.0 if clock[C_REACH] < 4.0 * REACH_MIN else 0.25 * clock[C_REACH]
         clock[C_H] = streak_h
         return 0.0, streak_err
-    factor = SAFETY * err ** -exponent if np.isfinite(err) else FAC_MIN
+    factor = SAFETY * err**-exponent if np.isfinite(err) else FAC_MIN
     clock[C_H] = h * max(FAC_MIN, min(1.0, factor))
     return streak_h, streak_err

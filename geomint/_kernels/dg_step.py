@@ -6,6 +6,7 @@ invariants at the new state, which the step evaluates to check them.
 ``damped_eps`` scales the dissipation by ``damping_factor`` for
 ``DampedGonzalez``.
 """
+
 import numpy as np
 from numba import types
 from numba.extending import overload
@@ -37,8 +38,9 @@ def _damped_eps_typed(damped, model, eps, buf, x, h):
         return lambda damped, model, eps, buf, x, h: (eps, 0)
     if marker is Damped:
         return lambda damped, model, eps, buf, x, h: (eps * damping_factor(model, eps, buf, x, h), 4)
-    return lambda damped, model, eps, buf, x, h: (eps * damping_factor(model, eps, buf, x, h), 4) if damped else (
-        eps, 0)
+    return lambda damped, model, eps, buf, x, h: (
+        (eps * damping_factor(model, eps, buf, x, h), 4) if damped else (eps, 0)
+    )
 
 
 @inner
@@ -65,8 +67,9 @@ def damping_factor(model, eps, buf, x, h):
 
 
 @hot
-def discrete_gradient_step(kind, max_iter, damped, compensated, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x,
-                           h, work):
+def discrete_gradient_step(
+    kind, max_iter, damped, compensated, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, work
+):
     """One metriplectic discrete-gradient step ``x' = x + h F(x, x')`` (``discrete_field``), solved to round-off.
 
     ``H_x`` is the energy the step keeps: the loop passes H(x0), not H(x_n),
@@ -86,7 +89,8 @@ def discrete_gradient_step(kind, max_iter, damped, compensated, coeffs, model, e
     from the explicit RK4 increment (O(h^5) from the flow, so O(h^3) from the
     root: it converges where a step near the time scale defeats the linear
     predictor, as a composition's long backward sub-step can); if that fails
-    too, once more with the step anchored to H(x_n) instead of H(x0).  Why: near an equilibrium a step moves by ``|dx| << |x|``, and
+    too, once more with the step anchored to H(x_n) instead of H(x0).  Why: near an equilibrium a step moves by
+    ``|dx| << |x|``, and
     removing an energy offset of a few ulps (``|H(x_n) - H(x0)|``) would need a
     discrete-gradient correction ~ ulp / |dx| that is noise; the un-anchored
     step keeps ``H(x') = H(x_n)`` to round-off, and later steps, anchored
@@ -100,12 +104,26 @@ def discrete_gradient_step(kind, max_iter, damped, compensated, coeffs, model, e
     status, iterations = NEWTON_FAILED, 0
     if not fresh:  # the usual step: the extrapolated start with the slot's Newton matrix
         status, x_new, comp_new, H_new, S_new, iterations, ev, rate, culprit = newton(
-            kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, predictor(work),
-            newton_matrix(work, h))
+            kind,
+            max_iter,
+            coeffs,
+            model,
+            eps,
+            hamiltonian,
+            buf,
+            x,
+            comp,
+            H_x,
+            S_x,
+            h,
+            predictor(work),
+            newton_matrix(work, h),
+        )
         evaluations += ev
     if fresh or status == NEWTON_FAILED:
         status, x_new, comp_new, H_new, S_new, it, ev, rate, culprit, attempt = attempts(
-            kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, work, 0 if fresh else 1)
+            kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, work, 0 if fresh else 1
+        )
         iterations += it
         evaluations += ev
         fresh = True

@@ -9,6 +9,7 @@ keeps H exactly and lowers S by ``h eps |dgH x dgS|^2`` (docs/design.md
 section 2).  ``discrete_field`` is compiled once per kind of discrete gradient
 (``dispatch.INLINED``), the gradient inlined, and once for integer codes.
 """
+
 import numpy as np
 from numba import njit, types
 from numba.extending import overload
@@ -95,10 +96,36 @@ def _discrete_field_with(discrete_gradient):
         axial_size, size_h, size_s = scales
         gain_h = abs(h) * ((axial_size if hamiltonian else 0.0) + 2.0 * eps * size_h * size_s)
         gain_s = abs(h) * ((axial_size / size_s if hamiltonian and size_s > 0.0 else 0.0) + eps * size_h * size_h)
-        dg_h, noise_h = discrete_gradient(kind, coeffs, model.H, model.grad_H, p, buf, x, x_new, H_old, H_new, size,
-                                          gain_h, origin_terms(model.origin, 0, x_new))
-        dg_s, noise_s = discrete_gradient(kind, coeffs, model.S, model.grad_S, p, buf, x, x_new, S_old, S_new, size,
-                                          gain_s, origin_terms(model.origin, 4, x_new))
+        dg_h, noise_h = discrete_gradient(
+            kind,
+            coeffs,
+            model.H,
+            model.grad_H,
+            p,
+            buf,
+            x,
+            x_new,
+            H_old,
+            H_new,
+            size,
+            gain_h,
+            origin_terms(model.origin, 0, x_new),
+        )
+        dg_s, noise_s = discrete_gradient(
+            kind,
+            coeffs,
+            model.S,
+            model.grad_S,
+            p,
+            buf,
+            x,
+            x_new,
+            S_old,
+            S_new,
+            size,
+            gain_s,
+            origin_terms(model.origin, 4, x_new),
+        )
         size_h, size_s = norm_inf(dg_h), norm_inf(dg_s)
         noise = eps * (2.0 * noise_h * size_s + noise_s * size_h) * size_h
         axial_bar = ZERO
@@ -109,6 +136,7 @@ def _discrete_field_with(discrete_gradient):
             noise += noise_h * norm_inf(axial) + (size_h * norm_inf(axial) * noise_s / size_s if size_s > 0.0 else 0.0)
         F = polish(dissipative(dg_h, dg_s, eps, cross(dg_h, axial_bar)), dg_h, dg_s, eps)
         return F, H_new, S_new, dg_h, dg_s, axial_bar, noise
+
     return discrete_field
 
 
@@ -132,7 +160,8 @@ def discrete_field(kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, 
 def _discrete_field_typed(kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales):
     field = _FIELD_BY_CODE if isinstance(kind, types.Integer) else _FIELDS[kind.instance_class]
     return lambda kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales: field(
-        kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales)
+        kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales
+    )
 
 
 @njit(cache=CACHE, error_model="numpy")
@@ -147,8 +176,9 @@ def evaluate(model, kind, coeffs, x_old, x_new, out):
     load(buf, x)
     H_old = model.H(buf, model.params)
     S_old = model.S(buf, model.params)
-    F, H_new, S_new, dg_h, dg_s, axial, noise = discrete_field(kind, coeffs, model, 0.0, True, buf, x, H_old, S_old, xn,
-                                                                0.0, (0.0, 0.0, 0.0))
+    F, H_new, S_new, dg_h, dg_s, axial, noise = discrete_field(
+        kind, coeffs, model, 0.0, True, buf, x, H_old, S_old, xn, 0.0, (0.0, 0.0, 0.0)
+    )
     for k in range(3):
         out[0, k] = dg_h[k]
         out[1, k] = dg_s[k]

@@ -34,6 +34,7 @@ switching rule (``_exact``): without it a step near an equilibrium converges to
 a root that keeps H to ~5 ulp only.  Every discrete gradient returns, with its value, a
 bound on the round-off it carries: the Newton iteration's floor.
 """
+
 import numpy as np
 
 from .jit import inner

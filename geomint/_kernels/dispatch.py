@@ -7,6 +7,7 @@ The four discrete gradients of ``discrete_gradient`` behind one signature
 compiled to be inlined, ``by_code`` chooses by the integer code, and
 ``discrete_gradient`` is the same choice for Python callers.
 """
+
 import numpy as np
 from numba import njit
 
@@ -44,17 +45,29 @@ def _exact(dg_noise, f_old, f_new, x, x_new, gain, base):
 
 
 def _itoh_abe_dg(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
-    return _exact(itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, base), f_old, f_new, x, x_new, gain,
-                  base)
+    return _exact(
+        itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, base), f_old, f_new, x, x_new, gain, base
+    )
 
 
 def _symmetrized_dg(kind, coeffs, F, grad_F, params, buf, x, x_new, f_old, f_new, size, gain, base):
-    return _exact(symmetrized_itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, base), f_old, f_new, x,
-                  x_new, gain, base)
+    return _exact(
+        symmetrized_itoh_abe(F, grad_F, params, buf, x, x_new, f_old, f_new, size, base),
+        f_old,
+        f_new,
+        x,
+        x_new,
+        gain,
+        base,
+    )
 
 
-_BY_MARKER = {GonzalezKind: _gonzalez_dg, ItohAbeKind: _itoh_abe_dg, SymmetrizedItohAbeKind: _symmetrized_dg,
-              AVFKind: _avf_dg}
+_BY_MARKER = {
+    GonzalezKind: _gonzalez_dg,
+    ItohAbeKind: _itoh_abe_dg,
+    SymmetrizedItohAbeKind: _symmetrized_dg,
+    AVFKind: _avf_dg,
+}
 
 
 #: each discrete gradient compiled to be inlined (into its own discrete field, below) ...
@@ -65,8 +78,7 @@ _gonzalez_inlined = INLINED[GonzalezKind]
 
 
 #: ... and as a call (programs mixing discrete-gradient kinds: ``composition.stage_kind``)
-_itoh_abe_called, _symmetrized_called, _avf_called = (
-    inner(dg) for dg in (_itoh_abe_dg, _symmetrized_dg, _avf_dg))
+_itoh_abe_called, _symmetrized_called, _avf_called = (inner(dg) for dg in (_itoh_abe_dg, _symmetrized_dg, _avf_dg))
 
 
 @njit(inline="always")

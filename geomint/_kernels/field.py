@@ -41,8 +41,12 @@ def dissipative(grad_h, grad_s, eps, base):
     """
     a = norm_inf(grad_h)
     b = norm_inf(grad_s)
-    if (SAFE_LOW <= a <= SAFE_HIGH and SAFE_LOW <= b <= SAFE_HIGH) or a == 0.0 or b == 0.0 or not (
-            np.isfinite(a) and np.isfinite(b)):
+    if (
+        (SAFE_LOW <= a <= SAFE_HIGH and SAFE_LOW <= b <= SAFE_HIGH)
+        or a == 0.0
+        or b == 0.0
+        or not (np.isfinite(a) and np.isfinite(b))
+    ):
         return axpy(eps, cross(grad_h, cross(grad_h, grad_s)), base)
     return _dissipative_scaled(grad_h, grad_s, eps, base, a, b)
 

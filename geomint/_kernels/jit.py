@@ -24,7 +24,15 @@ it off explicitly.  Measurements: docs/design.md sections 5 and 5a.
 from numba import njit
 
 # (no_cpython_wrapper and no_cfunc_wrapper are numba's own options, which its stubs for njit do not list)
-inner = njit(error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True,  # pyright: ignore[reportCallIssue]
-             forceinline=False)
-hot = njit(error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True,  # pyright: ignore[reportCallIssue]
-           forceinline=True)
+inner = njit(
+    error_model="numpy",
+    no_cpython_wrapper=True,
+    no_cfunc_wrapper=True,  # pyright: ignore[reportCallIssue]
+    forceinline=False,
+)
+hot = njit(
+    error_model="numpy",
+    no_cpython_wrapper=True,
+    no_cfunc_wrapper=True,  # pyright: ignore[reportCallIssue]
+    forceinline=True,
+)

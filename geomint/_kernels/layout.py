@@ -91,6 +91,7 @@ def new_clock(t0, h=0.0, steps=0):
     clock[C_REACH] = 1.0
     return clock
 
+
 # -- error estimators of an adaptive run (``control.Control.estimator``)
 NO_ESTIMATE = 0  # fixed steps that land on the stops
 EMBEDDED = 1  # the method's own embedded pair (``EmbeddedPairStep``)
@@ -167,7 +168,12 @@ GonzalezKind = namedtuple("GonzalezKind", "code")
 ItohAbeKind = namedtuple("ItohAbeKind", "code")
 SymmetrizedItohAbeKind = namedtuple("SymmetrizedItohAbeKind", "code")
 AVFKind = namedtuple("AVFKind", "code")
-KIND_MARKERS = {GONZALEZ: GonzalezKind, ITOH_ABE: ItohAbeKind, SYMMETRIZED_ITOH_ABE: SymmetrizedItohAbeKind, AVF: AVFKind}
+KIND_MARKERS = {
+    GONZALEZ: GonzalezKind,
+    ITOH_ABE: ItohAbeKind,
+    SYMMETRIZED_ITOH_ABE: SymmetrizedItohAbeKind,
+    AVF: AVFKind,
+}
 
 #: an explicit Runge-Kutta pair (``a`` strictly lower triangular, ``b`` the propagating weights; the nodes
 #: are not needed, the field is autonomous) with its error weights ``e`` (over the stages and xi at the new
@@ -184,8 +190,12 @@ RK4Leaf = namedtuple("RK4Leaf", "code")
 RigidBodyFlowLeaf = namedtuple("RigidBodyFlowLeaf", "code")
 RotorSplittingLeaf = namedtuple("RotorSplittingLeaf", "code")
 RotationLeaf = namedtuple("RotationLeaf", "code")
-LEAF_MARKERS = {LEAF_RK4: RK4Leaf, LEAF_RIGID_BODY_FLOW: RigidBodyFlowLeaf, LEAF_ROTOR_SPLITTING: RotorSplittingLeaf,
-                LEAF_ROTATION: RotationLeaf}
+LEAF_MARKERS = {
+    LEAF_RK4: RK4Leaf,
+    LEAF_RIGID_BODY_FLOW: RigidBodyFlowLeaf,
+    LEAF_ROTOR_SPLITTING: RotorSplittingLeaf,
+    LEAF_ROTATION: RotationLeaf,
+}
 
 #: the model as every kernel receives it: the user's functions (compiled, first-class), params, and
 #: ``origin = (H(0), grad H(0), S(0), grad S(0))`` (8 floats, 0 where not finite), from which the

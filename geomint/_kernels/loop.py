@@ -19,9 +19,34 @@ from .control import FAILED_FACTOR, PULL_BACK_ITER, accept, attempt, now, on_rej
 from .field import non_finite_culprit
 from .jit import inner
 from .layout import (
-    C_COUNT, C_H, C_REACH, C_STOP, C_T, CULPRIT, EPS, FAILED_STEP, FIELD_EVALUATIONS, FULL_STEP_RISES,
-    SAFEGUARD_FIRED, SUB_STEP_RISES, NEWTON_FAILED, NEWTON_ITERATIONS, NON_FINITE, OK, PROJECTION_FAILED, RAISED,
-    REJECTED, ROWS, STATE_ANCHOR, STATE_COMP, STATE_S, STATE_X, STATUS, STEP_TOO_SMALL, STEPS, USER_RAISED,
+    C_COUNT,
+    C_H,
+    C_REACH,
+    C_STOP,
+    C_T,
+    CULPRIT,
+    EPS,
+    FAILED_STEP,
+    FIELD_EVALUATIONS,
+    FULL_STEP_RISES,
+    NEWTON_FAILED,
+    NEWTON_ITERATIONS,
+    NON_FINITE,
+    OK,
+    PROJECTION_FAILED,
+    RAISED,
+    REJECTED,
+    ROWS,
+    SAFEGUARD_FIRED,
+    STATE_ANCHOR,
+    STATE_COMP,
+    STATE_S,
+    STATE_X,
+    STATUS,
+    STEP_TOO_SMALL,
+    STEPS,
+    SUB_STEP_RISES,
+    USER_RAISED,
 )
 from .vec3 import flush_tiny, is_finite, load, same
 
@@ -144,8 +169,9 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
                 _save(out, t_now, x, H_last, model.S(buf, p) if lazy else S_x)
             break
         if adaptive and H_target != anchor:  # the step kept (nearly) its own energy: back onto the anchor's
-            x_new, H_new, S_new, ev = pull_back(model, buf, x_new, H_new, S_new, anchor, max(S_x, S_new),
-                                                PULL_BACK_ITER)
+            x_new, H_new, S_new, ev = pull_back(
+                model, buf, x_new, H_new, S_new, anchor, max(S_x, S_new), PULL_BACK_ITER
+            )
             evaluations += ev
         if rise >= 0.0:
             counters[SUB_STEP_RISES] += rises

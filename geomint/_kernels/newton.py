@@ -8,13 +8,25 @@ tries without one (``dg_step.discrete_gradient_step`` says when).  A root is
 accepted only when it keeps H and S to ``GUARD`` ulps of their terms
 (``roundoff.kept``).
 """
+
 import numpy as np
 
 from .discrete_field import discrete_field
 from .field import field, non_finite_culprit
 from .jit import inner
 from .layout import (
-    EPS, NEWTON_FAILED, NON_FINITE, OK, SQRT_EPS, UNKNOWN, W_DX1, W_DX2, W_DX3, W_H, W_HISTORY, W_JACOBIAN,
+    EPS,
+    NEWTON_FAILED,
+    NON_FINITE,
+    OK,
+    SQRT_EPS,
+    UNKNOWN,
+    W_DX1,
+    W_DX2,
+    W_DX3,
+    W_H,
+    W_HISTORY,
+    W_JACOBIAN,
     W_JACOBIAN_VALID,
 )
 from .roundoff import kept, origin_terms, term_scale
@@ -83,12 +95,66 @@ def _residual_matrix(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h,
     r0 = _residual(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h, x_new, scales)
     size = norm_inf(x_new)
     delta = SQRT_EPS * (size if size > 0.0 else 1.0)
-    c0 = scale(1.0 / delta, sub(_residual(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h,
-                                          (x_new[0] + delta, x_new[1], x_new[2]), scales), r0))
-    c1 = scale(1.0 / delta, sub(_residual(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h,
-                                          (x_new[0], x_new[1] + delta, x_new[2]), scales), r0))
-    c2 = scale(1.0 / delta, sub(_residual(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h,
-                                          (x_new[0], x_new[1], x_new[2] + delta), scales), r0))
+    c0 = scale(
+        1.0 / delta,
+        sub(
+            _residual(
+                kind,
+                coeffs,
+                model,
+                eps,
+                hamiltonian,
+                buf,
+                x,
+                H_x,
+                S_x,
+                h,
+                (x_new[0] + delta, x_new[1], x_new[2]),
+                scales,
+            ),
+            r0,
+        ),
+    )
+    c1 = scale(
+        1.0 / delta,
+        sub(
+            _residual(
+                kind,
+                coeffs,
+                model,
+                eps,
+                hamiltonian,
+                buf,
+                x,
+                H_x,
+                S_x,
+                h,
+                (x_new[0], x_new[1] + delta, x_new[2]),
+                scales,
+            ),
+            r0,
+        ),
+    )
+    c2 = scale(
+        1.0 / delta,
+        sub(
+            _residual(
+                kind,
+                coeffs,
+                model,
+                eps,
+                hamiltonian,
+                buf,
+                x,
+                H_x,
+                S_x,
+                h,
+                (x_new[0], x_new[1], x_new[2] + delta),
+                scales,
+            ),
+            r0,
+        ),
+    )
     return ((c0[0], c1[0], c2[0]), (c0[1], c1[1], c2[1]), (c0[2], c1[2], c2[2]))
 
 
@@ -150,8 +216,9 @@ def newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S
     first_theta = 0.0
     scales = (0.0, 0.0, 0.0)
     for iteration in range(1, max_iter + 1):
-        F, H_new, S_new, dg_h, dg_s, axial, noise = discrete_field(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x,
-                                                                   x_new, h, scales)
+        F, H_new, S_new, dg_h, dg_s, axial, noise = discrete_field(
+            kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, x_new, h, scales
+        )
         evaluations += 1
         scales = (norm_inf(axial), norm_inf(dg_h), norm_inf(dg_s))
         if not (is_finite(F) and np.isfinite(H_new) and np.isfinite(S_new)):
@@ -173,9 +240,10 @@ def newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S
         exact = kept(H_x, H_new, terms_h, ACCEPT_ULPS, 0.0) and kept(S_x, S_new, terms_s, s_ulps, s_direction)
         # a spurious root: the invariants the scheme guarantees are far off, by more than the remaining
         # correction explains (a component of dx much smaller than |dx| is still being resolved)
-        if converged and not (kept(H_x, H_new, terms_h + 8.0 * abs_dot(dg_h, correction) / (GUARD * EPS), GUARD, 0.0)
-                              and kept(S_x, S_new, terms_s + 8.0 * abs_dot(dg_s, correction) / (GUARD * EPS), GUARD,
-                                        s_direction)):
+        if converged and not (
+            kept(H_x, H_new, terms_h + 8.0 * abs_dot(dg_h, correction) / (GUARD * EPS), GUARD, 0.0)
+            and kept(S_x, S_new, terms_s + 8.0 * abs_dot(dg_s, correction) / (GUARD * EPS), GUARD, s_direction)
+        ):
             break
         theta = error / previous
         if iteration == 2:

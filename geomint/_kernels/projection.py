@@ -109,8 +109,9 @@ def on_level(model, buf, y, H_y, S_y, anchor, S_x):
     load(buf, y)
     grad_h = as_vector(model.grad_H(buf, model.params))
     grad_s = as_vector(model.grad_S(buf, model.params))
-    return (kept(anchor, H_y, term_scale(anchor, H_y, grad_h, y, origin_terms(model.origin, 0, y)), 64.0, 0.0)
-            and S_y - S_x <= rise_tolerance(S_x, S_y, grad_s, y, origin_terms(model.origin, 4, y)))
+    return kept(
+        anchor, H_y, term_scale(anchor, H_y, grad_h, y, origin_terms(model.origin, 0, y)), 64.0, 0.0
+    ) and S_y - S_x <= rise_tolerance(S_x, S_y, grad_s, y, origin_terms(model.origin, 4, y))
 
 
 @inner

@@ -15,6 +15,7 @@ workspace (``work``), so threads of an ensemble share nothing.
 
 Every step lands with ``vec3.advance`` (compensated summation).
 """
+
 import numpy as np
 from numba import njit
 
@@ -43,6 +44,7 @@ def _rk4_increment_of(xi):
                 k4 = k
             y = axpy(h if stage == 2 else 0.5 * h, k, x)
         return scale(h / 6.0, add(add(k1, k4), scale(2.0, add(k2, k3))))
+
     return increment
 
 
@@ -61,8 +63,9 @@ def rk4_step(model, eps, hamiltonian, buf, x, comp, h):
     x_new, comp_new = advance(x, comp, _rk4_increment_inlined(model, eps, hamiltonian, buf, x, h))
     if is_finite(x_new):
         return StepResult(x_new, comp_new, np.nan, np.nan, OK, 0, 4, 0.0, UNKNOWN)
-    return StepResult(x_new, comp_new, np.nan, np.nan, NON_FINITE, 0, 4, 0.0,
-                      _stage_culprit(model, eps, hamiltonian, buf, x, h))
+    return StepResult(
+        x_new, comp_new, np.nan, np.nan, NON_FINITE, 0, 4, 0.0, _stage_culprit(model, eps, hamiltonian, buf, x, h)
+    )
 
 
 @inner
@@ -126,11 +129,15 @@ def pair_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, w
             error_low = _combine(k, e_low, h, rows)
     H_new, S_new = np.nan, np.nan
     if method.projection != NO_PROJECTION:
-        x_new, H_new, S_new, projected, more = project_step(model, buf, x_new, np.nan, np.nan, H_anchor, S_x,
-                                                            method.max_iter)
+        x_new, H_new, S_new, projected, more = project_step(
+            model, buf, x_new, np.nan, np.nan, H_anchor, S_x, method.max_iter
+        )
         comp_new = ZERO
         evaluations += more
         if not projected:
-            return (StepResult(x_new, comp_new, H_new, S_new, PROJECTION_FAILED, 0, evaluations, 0.0, UNKNOWN),
-                    error, error_low)
+            return (
+                StepResult(x_new, comp_new, H_new, S_new, PROJECTION_FAILED, 0, evaluations, 0.0, UNKNOWN),
+                error,
+                error_low,
+            )
     return StepResult(x_new, comp_new, H_new, S_new, OK, 0, evaluations, 0.0, UNKNOWN), error, error_low

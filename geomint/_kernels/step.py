@@ -6,6 +6,7 @@
 compiled, so a run compiles only what it uses; under ``NUMBA_DISABLE_JIT=1``
 the same choice is made in Python.
 """
+
 from numba import njit
 from numba.extending import overload
 
@@ -22,8 +23,23 @@ def _rk4(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
 
 @njit(inline="always")
 def _discrete_gradient(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
-    return discrete_gradient_step(method.kind, method.max_iter, method.damped, method.compensated, method.coeffs, model,
-                                  eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work)
+    return discrete_gradient_step(
+        method.kind,
+        method.max_iter,
+        method.damped,
+        method.compensated,
+        method.coeffs,
+        model,
+        eps,
+        hamiltonian,
+        buf,
+        x,
+        comp,
+        H_anchor,
+        S_x,
+        h,
+        work,
+    )
 
 
 @njit(inline="always")
@@ -36,8 +52,7 @@ def _pair(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work)
     return pair_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work, False)[0]
 
 
-_STEPS = {RungeKutta4: _rk4, DiscreteGradientStep: _discrete_gradient, ComposedStep: _composed,
-          EmbeddedPairStep: _pair}
+_STEPS = {RungeKutta4: _rk4, DiscreteGradientStep: _discrete_gradient, ComposedStep: _composed, EmbeddedPairStep: _pair}
 
 
 def step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):

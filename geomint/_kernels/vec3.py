@@ -106,8 +106,9 @@ def as_vector(v):
 @overload(as_vector)
 def _as_vector(v):
     if isinstance(v, types.Array) and v.ndim == 2:
-        return lambda v: (v[1, 2], -v[0, 2], v[0, 1]) if v.shape[0] == 3 and v.shape[1] == 3 else (np.nan, np.nan,
-                                                                                                  np.nan)
+        return lambda v: (
+            (v[1, 2], -v[0, 2], v[0, 1]) if v.shape[0] == 3 and v.shape[1] == 3 else (np.nan, np.nan, np.nan)
+        )
     if isinstance(v, types.Array):
         return lambda v: (v[0], v[1], v[2]) if v.shape[0] == 3 else (np.nan, np.nan, np.nan)
     return lambda v: (v[0], v[1], v[2])

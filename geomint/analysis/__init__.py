@@ -19,21 +19,51 @@ classifies them.  One concept per module:
 Every name below is importable from ``geomint.analysis``.
 """
 
-from . import continuation as continuation, level_set as level_set  # the submodules users reach by name
+from . import continuation as continuation  # the submodules users reach by name
+from . import level_set as level_set
 from ._common import FIELDS
 from .equilibria import (
-    Equilibrium, EquilibriumCurve, RestCycle, classify_cycle, equilibria, equilibrium_points, rest_cycles,
+    Equilibrium,
+    EquilibriumCurve,
+    RestCycle,
+    classify_cycle,
+    equilibria,
+    equilibrium_points,
+    rest_cycles,
 )
 from .propositions import (
-    REASONS, Conditions, conditions, explain, gradient_zeros_explained, regular_equilibria_explained,
+    REASONS,
+    Conditions,
+    conditions,
+    explain,
+    gradient_zeros_explained,
+    regular_equilibria_explained,
     shared_equilibria_hold,
 )
 from .stability import Factorisation, eigenvalue_kind, factorise, linearise, tangent_basis, verdict
 from .zero_sets import refine
 
 __all__ = [
-    "FIELDS", "REASONS", "Conditions", "Equilibrium", "EquilibriumCurve", "Factorisation", "RestCycle",
-    "classify_cycle", "conditions", "eigenvalue_kind", "equilibria", "equilibrium_points", "explain", "factorise",
-    "gradient_zeros_explained", "linearise", "refine", "regular_equilibria_explained", "rest_cycles",
-    "shared_equilibria_hold", "tangent_basis", "verdict",
+    "FIELDS",
+    "REASONS",
+    "Conditions",
+    "Equilibrium",
+    "EquilibriumCurve",
+    "Factorisation",
+    "RestCycle",
+    "classify_cycle",
+    "conditions",
+    "eigenvalue_kind",
+    "equilibria",
+    "equilibrium_points",
+    "explain",
+    "factorise",
+    "gradient_zeros_explained",
+    "linearise",
+    "refine",
+    "regular_equilibria_explained",
+    "rest_cycles",
+    "shared_equilibria_hold",
+    "tangent_basis",
+    "verdict",
 ]

@@ -116,8 +116,9 @@ class Continuation:
         return rows
 
 
-def continuation(system: MetriplecticSystem, H0: float, eps_values: npt.ArrayLike, center: npt.ArrayLike | None = None,
-                 n: int = 2000) -> Continuation:
+def continuation(
+    system: MetriplecticSystem, H0: float, eps_values: npt.ArrayLike, center: npt.ArrayLike | None = None, n: int = 2000
+) -> Continuation:
     """Follow the equilibria and rest cycles of ``system`` on ``H = H0`` over ``eps_values``.
 
     Parameters
@@ -147,11 +148,15 @@ def continuation(system: MetriplecticSystem, H0: float, eps_values: npt.ArrayLik
     """
     eps_values = _check_eps_values(eps_values)
     top = system.with_effects(eps=float(eps_values[-1]))
-    branches = [_follow_equilibrium(system, H0, e, eps_values) if isinstance(e, _equilibria.Equilibrium)
-                else _follow_curve(system, H0, e, eps_values)
-                for e in _equilibria.equilibria(top, H0, center=center, n=n)]
-    branches += [_follow_cycle(system, c, eps_values) for c in _equilibria.rest_cycles(top, H0, center=center, n=n)
-                 if c.periodic]
+    branches = [
+        _follow_equilibrium(system, H0, e, eps_values)
+        if isinstance(e, _equilibria.Equilibrium)
+        else _follow_curve(system, H0, e, eps_values)
+        for e in _equilibria.equilibria(top, H0, center=center, n=n)
+    ]
+    branches += [
+        _follow_cycle(system, c, eps_values) for c in _equilibria.rest_cycles(top, H0, center=center, n=n) if c.periodic
+    ]
     return Continuation(system.name, float(H0), branches)
 
 
@@ -199,12 +204,22 @@ def _follow(kind, x_top, label, eps_values, state):
         x = record[0]
     records.reverse()
     points = np.array([r[0] for r in records])
-    changes = [_bisect(state, float(eps_values[k]), float(eps_values[k + 1]), records[k][2], records[k + 1][2],
-                       points[k])
-               for k in range(len(eps_values) - 1) if records[k][2] != records[k + 1][2]]
-    return Branch(kind, x_top, label, np.asarray(eps_values), np.array([r[1] for r in records]),
-                  np.array([r[2][0] for r in records]), np.array([r[2][1] for r in records]),
-                  float(np.max(np.linalg.norm(points - x_top, axis=1))), changes)
+    changes = [
+        _bisect(state, float(eps_values[k]), float(eps_values[k + 1]), records[k][2], records[k + 1][2], points[k])
+        for k in range(len(eps_values) - 1)
+        if records[k][2] != records[k + 1][2]
+    ]
+    return Branch(
+        kind,
+        x_top,
+        label,
+        np.asarray(eps_values),
+        np.array([r[1] for r in records]),
+        np.array([r[2][0] for r in records]),
+        np.array([r[2][1] for r in records]),
+        float(np.max(np.linalg.norm(points - x_top, axis=1))),
+        changes,
+    )
 
 
 def _bisect(state, low, high, before, after, x):

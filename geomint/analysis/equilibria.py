@@ -140,8 +140,9 @@ def _scale(jacobian):
     return float(np.linalg.norm(jacobian)) + 1e-300
 
 
-def equilibria(system: MetriplecticSystem, H0: float, field: str = "xi", center: npt.ArrayLike | None = None,
-               n: int = 4000) -> list[Equilibrium | EquilibriumCurve]:
+def equilibria(
+    system: MetriplecticSystem, H0: float, field: str = "xi", center: npt.ArrayLike | None = None, n: int = 4000
+) -> list[Equilibrium | EquilibriumCurve]:
     """Equilibria of ``field`` on the level set ``H = H0``, each explained and classified.
 
     Candidates are the local minima of ``|F|`` over each point's 8 nearest
@@ -186,15 +187,20 @@ def equilibria(system: MetriplecticSystem, H0: float, field: str = "xi", center:
         if kind == "point":
             regular, reasons, proposition = explain(system, data, field)
             jacobian, lam = linearise(system, data, field)
-            found.append(Equilibrium(data, field, regular, reasons, proposition, jacobian, lam,
-                                     verdict(lam, _scale(jacobian))))
+            found.append(
+                Equilibrium(data, field, regular, reasons, proposition, jacobian, lam, verdict(lam, _scale(jacobian)))
+            )
         else:
             found.append(_equilibrium_curve(system, field, *data))
     return found
 
 
-def rest_cycles(system: MetriplecticSystem, H0: float, center: npt.ArrayLike | None = None, n: int = 4000,
-                ) -> list[RestCycle]:
+def rest_cycles(
+    system: MetriplecticSystem,
+    H0: float,
+    center: npt.ArrayLike | None = None,
+    n: int = 4000,
+) -> list[RestCycle]:
     """The curves ``{grad S = 0} n {H = H0}`` and the stability of the flow ``xi`` across them.
 
     By Prop. 15 a regular point with ``grad S = 0`` lies on an invariant leaf
@@ -254,12 +260,24 @@ def _equilibrium_curve(system, field, points, closed):
     lam = eig[np.arange(len(points)), np.argmax(np.abs(eig), axis=1)].real  # pyright: ignore[reportAttributeAccessIssue]
     scale = float(np.linalg.norm(jacobians, axis=(1, 2)).max())
     verdicts = np.array([verdict([v], scale) for v in lam])
-    return EquilibriumCurve(points, closed, field, np.array(regular), tuple(k for k in REASONS if k in reasons),  # pyright: ignore[reportOperatorIssue]
-                            propositions[0], lam, verdicts)
+    return EquilibriumCurve(
+        points,
+        closed,
+        field,
+        np.array(regular),
+        tuple(k for k in REASONS if k in reasons),  # pyright: ignore[reportOperatorIssue]
+        propositions[0],
+        lam,
+        verdicts,
+    )
 
 
-def equilibrium_points(system: MetriplecticSystem, H0: float, center: npt.ArrayLike | None, n: int = 4000,
-                       ) -> list[tuple[np.ndarray, str]]:
+def equilibrium_points(
+    system: MetriplecticSystem,
+    H0: float,
+    center: npt.ArrayLike | None,
+    n: int = 4000,
+) -> list[tuple[np.ndarray, str]]:
     """``[(x, verdict), ...]`` on ``H = H0``: the points of ``equilibria`` with their verdicts, a curve of
     equilibria contributing each of its traced points (what a figure marks)."""
     pairs = []

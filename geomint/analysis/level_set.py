@@ -50,8 +50,11 @@ def energy_minimiser(system: MetriplecticSystem) -> Array:
     # overflow is the expected outcome of the search, not the user's doing, so numpy is not to warn about it
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         result = optimize.minimize(
-            lambda x: float(system.H(x)), np.zeros(3), jac=lambda x: np.asarray(system.grad_H(x), dtype=float),
-            method="BFGS", options={"gtol": 1e-12},
+            lambda x: float(system.H(x)),
+            np.zeros(3),
+            jac=lambda x: np.asarray(system.grad_H(x), dtype=float),
+            method="BFGS",
+            options={"gtol": 1e-12},
         )
     return np.asarray(result.x, dtype=np.float64)
 
@@ -98,8 +101,13 @@ def sample(system: MetriplecticSystem, H0: float, n: int, center: npt.ArrayLike 
     return on_rays(system, H0, fibonacci_directions(n), center)
 
 
-def mesh(system: MetriplecticSystem, H0: float, center: npt.ArrayLike, n_theta: int = 48, n_phi: int = 96,
-         ) -> tuple[Array, Array, Array]:
+def mesh(
+    system: MetriplecticSystem,
+    H0: float,
+    center: npt.ArrayLike,
+    n_theta: int = 48,
+    n_phi: int = 96,
+) -> tuple[Array, Array, Array]:
     """``(X, Y, Z)`` arrays of shape ``(n_theta, n_phi)``: a latitude-longitude grid on the level set."""
     theta = np.linspace(0.0, np.pi, n_theta)
     phi = np.linspace(0.0, 2.0 * np.pi, n_phi)
@@ -109,8 +117,13 @@ def mesh(system: MetriplecticSystem, H0: float, center: npt.ArrayLike, n_theta: 
     return P[..., 0], P[..., 1], P[..., 2]
 
 
-def isosurface(system: MetriplecticSystem, H0: float, low: npt.ArrayLike, high: npt.ArrayLike, n: int = 28,
-               ) -> Array:
+def isosurface(
+    system: MetriplecticSystem,
+    H0: float,
+    low: npt.ArrayLike,
+    high: npt.ArrayLike,
+    n: int = 28,
+) -> Array:
     """Triangles of the level set ``H = H0`` inside the box ``[low, high]``, shape ``(k, 3, 3)``.
 
     For level sets that are not star-shaped or not bounded (a cylinder), where
@@ -141,11 +154,19 @@ def isosurface(system: MetriplecticSystem, H0: float, low: npt.ArrayLike, high: 
     lone = np.take_along_axis(lone, np.argsort(~odd, axis=1, kind="stable"), axis=1)
     pair = tets[count == 2]
     pair = np.take_along_axis(pair, np.argsort(~positive[count == 2], axis=1, kind="stable"), axis=1)
-    quads = [cut(pair[:, 0], pair[:, 2]), cut(pair[:, 0], pair[:, 3]), cut(pair[:, 1], pair[:, 3]),
-             cut(pair[:, 1], pair[:, 2])]
-    triangles = np.concatenate([
-        np.stack([cut(lone[:, 0], lone[:, k]) for k in (1, 2, 3)], axis=1),
-        np.stack(quads[:3], axis=1), np.stack([quads[0], quads[2], quads[3]], axis=1)])
+    quads = [
+        cut(pair[:, 0], pair[:, 2]),
+        cut(pair[:, 0], pair[:, 3]),
+        cut(pair[:, 1], pair[:, 3]),
+        cut(pair[:, 1], pair[:, 2]),
+    ]
+    triangles = np.concatenate(
+        [
+            np.stack([cut(lone[:, 0], lone[:, k]) for k in (1, 2, 3)], axis=1),
+            np.stack(quads[:3], axis=1),
+            np.stack([quads[0], quads[2], quads[3]], axis=1),
+        ]
+    )
     vertices = triangles.reshape(-1, 3)
     if len(vertices):
         gradient = np.atleast_2d(np.asarray(system.grad_H(vertices), dtype=np.float64))
@@ -156,8 +177,14 @@ def isosurface(system: MetriplecticSystem, H0: float, low: npt.ArrayLike, high: 
     return vertices.reshape(-1, 3, 3)
 
 
-def section(system: MetriplecticSystem, H0: float, center: npt.ArrayLike, plane: Sequence[float], n_theta: int = 181,
-            n_phi: int = 361) -> list[Array]:
+def section(
+    system: MetriplecticSystem,
+    H0: float,
+    center: npt.ArrayLike,
+    plane: Sequence[float],
+    n_theta: int = 181,
+    n_phi: int = 361,
+) -> list[Array]:
     """Curves ``{H = H0} n {a x + b y + c z = d}`` as a list of ``(m, 3)`` arrays, ``plane = (a, b, c, d)``.
 
     The zero contour of ``a x + b y + c z - d`` on a latitude-longitude grid of

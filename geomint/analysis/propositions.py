@@ -65,8 +65,12 @@ class Conditions:
     xi_g_zero: np.ndarray
 
 
-def conditions(system: MetriplecticSystem, X: npt.ArrayLike, atol: float | None = None, rtol: float = ZERO,
-               ) -> Conditions:
+def conditions(
+    system: MetriplecticSystem,
+    X: npt.ArrayLike,
+    atol: float | None = None,
+    rtol: float = ZERO,
+) -> Conditions:
     """Evaluate at each row of ``X`` the conditions that the paper's propositions relate.
 
     A vector counts as zero when its norm is at most ``atol``; a product
@@ -112,14 +116,22 @@ def conditions(system: MetriplecticSystem, X: npt.ArrayLike, atol: float | None 
     xi_P_zero = small_H | small_J | (xi_P <= rtol * nh * nj)
     xi_g_zero = small_H | small_S | (xi_g <= rtol * nh * nh * ns)
     return Conditions(
-        atol=float(atol), regular=~small_J, critical_H=small_H, critical_S=small_S,
-        parallel=~small_H & ~small_S & (sigma <= rtol * nh * ns), xi_P_zero=xi_P_zero, xi_g_zero=xi_g_zero,
+        atol=float(atol),
+        regular=~small_J,
+        critical_H=small_H,
+        critical_S=small_S,
+        parallel=~small_H & ~small_S & (sigma <= rtol * nh * ns),
+        xi_P_zero=xi_P_zero,
+        xi_g_zero=xi_g_zero,
         xi_zero=(xi_P_zero if system.hamiltonian else True) & (xi_g_zero | (system.eps == 0.0)),
     )
 
 
-def shared_equilibria_hold(system: MetriplecticSystem, X: npt.ArrayLike, atol: float | None = None,
-                           ) -> npt.NDArray[np.bool_]:
+def shared_equilibria_hold(
+    system: MetriplecticSystem,
+    X: npt.ArrayLike,
+    atol: float | None = None,
+) -> npt.NDArray[np.bool_]:
     """Lemma 8 (Prop. 9) at each row of ``X``: at a regular point ``xi = 0`` iff ``xi_P = 0``.
 
     Returns a boolean array, True where the statement holds (always at
@@ -137,8 +149,11 @@ def shared_equilibria_hold(system: MetriplecticSystem, X: npt.ArrayLike, atol: f
     return ~c.regular | (c.xi_zero == c.xi_P_zero)
 
 
-def regular_equilibria_explained(system: MetriplecticSystem, X: npt.ArrayLike, atol: float | None = None,
-                                 ) -> npt.NDArray[np.bool_]:
+def regular_equilibria_explained(
+    system: MetriplecticSystem,
+    X: npt.ArrayLike,
+    atol: float | None = None,
+) -> npt.NDArray[np.bool_]:
     """Prop. 10 at each row of ``X``: a regular zero of ``xi_P`` is a critical point of H or has ``grad S || grad H``.
 
     Returns a boolean array, True where the statement holds.  Where
@@ -148,8 +163,11 @@ def regular_equilibria_explained(system: MetriplecticSystem, X: npt.ArrayLike, a
     return ~(c.regular & c.xi_P_zero & ~c.critical_S) | c.critical_H | c.parallel
 
 
-def gradient_zeros_explained(system: MetriplecticSystem, X: npt.ArrayLike, atol: float | None = None,
-                             ) -> npt.NDArray[np.bool_]:
+def gradient_zeros_explained(
+    system: MetriplecticSystem,
+    X: npt.ArrayLike,
+    atol: float | None = None,
+) -> npt.NDArray[np.bool_]:
     """Prop. 11 at each row of ``X``: ``xi_g = 0`` iff ``grad S || grad H`` or a gradient vanishes.
 
     Compares the norm of the field ``system.xi_g`` itself (not the conditions'
@@ -168,7 +186,7 @@ def gradient_zeros_explained(system: MetriplecticSystem, X: npt.ArrayLike, atol:
     c = conditions(system, X, atol)
     nh2 = np.linalg.norm(np.atleast_2d(system.grad_H(X)), axis=1) ** 2
     ns = np.linalg.norm(np.atleast_2d(system.grad_S(X)), axis=1)
-    bound = 2 * ZERO * nh2 * ns + nh2 * c.atol + c.atol ** 2 * ns
+    bound = 2 * ZERO * nh2 * ns + nh2 * c.atol + c.atol**2 * ns
     field_zero = np.linalg.norm(np.atleast_2d(system.xi_g(X)), axis=1) <= bound
     geometric = c.parallel | c.critical_H | c.critical_S
     return field_zero == geometric

@@ -39,8 +39,12 @@ def _tangent_bases(system, X):
     return np.linalg.svd((normal / size[:, None])[:, None, :])[2][:, 1:]
 
 
-def linearise(system: MetriplecticSystem, x: npt.ArrayLike, field: str = "xi", step: float | None = None,
-              ) -> tuple[np.ndarray, np.ndarray]:
+def linearise(
+    system: MetriplecticSystem,
+    x: npt.ArrayLike,
+    field: str = "xi",
+    step: float | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """The Jacobian of ``field`` restricted to the level set through ``x``, and its eigenvalues.
 
         J_T = T Df(x) T^T,   T = tangent_basis(system, x)   (2 x 2),
@@ -81,6 +85,7 @@ def linearise(system: MetriplecticSystem, x: npt.ArrayLike, field: str = "xi", s
     eigenvalues = np.linalg.eigvals(jacobian)
     return (jacobian[0], eigenvalues[0]) if np.ndim(x) == 1 else (jacobian, eigenvalues)
 
+
 @dataclass(frozen=True)
 class Factorisation:
     """The tangent-plane Jacobian of ``xi`` at a regular equilibrium with ``grad S = lam grad H != 0``.
@@ -119,7 +124,7 @@ class Factorisation:
 
     def jacobian(self, eps: float) -> npt.NDArray[np.float64]:
         """``J_T(eps)``, shape (2, 2)."""
-        return (self.mu * self.rotation - eps * self.grad_H_norm ** 2 * np.eye(2)) @ self.hessian
+        return (self.mu * self.rotation - eps * self.grad_H_norm**2 * np.eye(2)) @ self.hessian
 
     @property
     def constrained_type(self) -> str:
@@ -145,7 +150,8 @@ def factorise(system: MetriplecticSystem, x: npt.ArrayLike, step: float | None =
     """The ``Factorisation`` of the tangent-plane Jacobian at a regular equilibrium ``x`` with ``grad S || grad H``.
 
     [R3]: the cross-product matrix ``[grad H x]`` exists in R^3 only.  Hessians
-    by central differences of the gradients (step ``1e-6 (1 + |x|)`` by default).  Raises ``ValueError`` where ``grad H``, ``grad S`` or ``J``
+    by central differences of the gradients (step ``1e-6 (1 + |x|)`` by default).  Raises ``ValueError`` where ``grad
+    H``, ``grad S`` or ``J``
     vanishes (the factorisation needs all three).
 
     Examples
@@ -162,11 +168,15 @@ def factorise(system: MetriplecticSystem, x: npt.ArrayLike, step: float | None =
     gh, gs, j = (np.asarray(f(x), dtype=float) for f in (system.grad_H, system.grad_S, system.J))
     for name, v in (("grad H", gh), ("grad S", gs), ("J", j)):
         if not np.linalg.norm(v) > 0.0:
-            raise ValueError(f"`x` must be a regular point with grad H != 0 and grad S != 0; {name} = 0 at {x.tolist()}.")
+            raise ValueError(
+                f"`x` must be a regular point with grad H != 0 and grad S != 0; {name} = 0 at {x.tolist()}."
+            )
     step = 1e-6 * (1.0 + float(np.linalg.norm(x))) if step is None else float(step)
     shifts = np.concatenate([x + step * np.eye(3), x - step * np.eye(3)])
-    hess_H, hess_S = (((v[:3] - v[3:]) / (2.0 * step)).T for v in (np.atleast_2d(system.grad_H(shifts)),
-                                                                    np.atleast_2d(system.grad_S(shifts))))
+    hess_H, hess_S = (
+        ((v[:3] - v[3:]) / (2.0 * step)).T
+        for v in (np.atleast_2d(system.grad_H(shifts)), np.atleast_2d(system.grad_S(shifts)))
+    )
     lam, mu = float(gs @ gh / (gh @ gh)), float(j @ gs / (gs @ gs))
     T = tangent_basis(system, x)
     cross = np.array([[0.0, -gh[2], gh[1]], [gh[2], 0.0, -gh[0]], [-gh[1], gh[0], 0.0]])
@@ -213,4 +223,3 @@ def eigenvalue_kind(eigenvalues: npt.ArrayLike, scale: float, rtol: float = 1e-7
     if np.all(np.abs(lam.imag) <= tol):  # pyright: ignore[reportAttributeAccessIssue]
         return "saddle" if lam.real.min() < 0 < lam.real.max() else "node"  # pyright: ignore[reportAttributeAccessIssue]
     return "centre" if np.all(np.abs(lam.real) <= tol) else "focus"  # pyright: ignore[reportAttributeAccessIssue]
-

@@ -57,8 +57,13 @@ def refine(system: MetriplecticSystem, x0: npt.ArrayLike, H0: float, field: str 
     return x
 
 
-def zero_set(system: MetriplecticSystem, H0: float, Z: Callable[[npt.NDArray[np.float64]], npt.NDArray[np.float64]],
-             center: npt.ArrayLike | None, n: int) -> list[tuple[str, Any]]:
+def zero_set(
+    system: MetriplecticSystem,
+    H0: float,
+    Z: Callable[[npt.NDArray[np.float64]], npt.NDArray[np.float64]],
+    center: npt.ArrayLike | None,
+    n: int,
+) -> list[tuple[str, Any]]:
     """Isolated zeros and traced zero curves of ``Z`` on ``H = H0``: ``[("point", x) | ("curve", (pts, closed))]``.
 
     ``Z`` maps points ``(m, 3)`` to values ``(m, k)``.  Candidates are the local
@@ -72,8 +77,9 @@ def zero_set(system: MetriplecticSystem, H0: float, Z: Callable[[npt.NDArray[np.
     H0 = check_level(H0)
     if not (isinstance(n, (int, np.integer)) and n >= 20):
         raise ValueError(f"`n` must be an integer >= 20; got {n!r}.")
-    center = (_level_set.energy_minimiser(system) if center is None
-              else cast("npt.NDArray[np.float64]", as_points(center)[0]))
+    center = (
+        _level_set.energy_minimiser(system) if center is None else cast("npt.NDArray[np.float64]", as_points(center)[0])
+    )
     points = _level_set.on_rays(system, H0, _level_set.fibonacci_directions(int(n)), center)
     size = np.linalg.norm(Z(points), axis=1)
     scale = float(size.max())
@@ -129,9 +135,14 @@ class _Corrector:
         from scipy import optimize
 
         with np.errstate(divide="ignore", invalid="ignore"):  # trf divides by a zero step norm once converged
-            x = optimize.least_squares(lambda x: self.residual(x, plane), x0,
-                                       jac=lambda x: self.jacobian(x, plane),  # pyright: ignore[reportArgumentType]
-                                       xtol=1e-15, ftol=1e-15, gtol=1e-15).x
+            x = optimize.least_squares(
+                lambda x: self.residual(x, plane),
+                x0,
+                jac=lambda x: self.jacobian(x, plane),  # pyright: ignore[reportArgumentType]
+                xtol=1e-15,
+                ftol=1e-15,
+                gtol=1e-15,
+            ).x
         ok = np.linalg.norm(self.Z(x[None])[0]) <= ZERO * self.z_scale
         ok &= abs(self.system.H(x) - self.H0) <= 1e-12 * self.h_scale
         return x if ok else None
@@ -181,4 +192,3 @@ class _Corrector:
             branch.append(nxt)
             x = nxt
         return branch, False
-

@@ -16,10 +16,27 @@ from .splitting import Lie, Strang
 INTEGRATORS = {
     cls.name: cls
     for cls in (
-        Gonzalez, ItohAbe, SymmetrizedItohAbe, AVF, DampedGonzalez, RK4, BogackiShampine32, DormandPrince54,
-        DormandPrince853, Lie, Strang, Projected,
-        Yoshida4, Suzuki4, Yoshida6, KahanLi6, SuzukiUmeno8, KahanLi8,
-        RigidBodyFlow, RotorSplitting, OscillatorRotation,
+        Gonzalez,
+        ItohAbe,
+        SymmetrizedItohAbe,
+        AVF,
+        DampedGonzalez,
+        RK4,
+        BogackiShampine32,
+        DormandPrince54,
+        DormandPrince853,
+        Lie,
+        Strang,
+        Projected,
+        Yoshida4,
+        Suzuki4,
+        Yoshida6,
+        KahanLi6,
+        SuzukiUmeno8,
+        KahanLi8,
+        RigidBodyFlow,
+        RotorSplitting,
+        OscillatorRotation,
     )
 }
 
@@ -34,11 +51,36 @@ def resolve(method: Integrator | str) -> Integrator:
 
 
 __all__ = [
-    "AVF", "BogackiShampine32", "Composition", "DampedGonzalez", "DiscreteGradient", "DormandPrince54", "DormandPrince853", "EmbeddedRungeKutta", "Gonzalez", "INTEGRATORS", "Integrator", "ItohAbe",
-    "KahanLi6", "KahanLi8", "Lie", "OscillatorRotation", "Projected", "RK4", "RigidBodyFlow", "RotorSplitting",
+    "AVF",
+    "BogackiShampine32",
+    "Composition",
+    "DampedGonzalez",
+    "DiscreteGradient",
+    "DormandPrince54",
+    "DormandPrince853",
+    "EmbeddedRungeKutta",
+    "Gonzalez",
+    "INTEGRATORS",
+    "Integrator",
+    "ItohAbe",
+    "KahanLi6",
+    "KahanLi8",
+    "Lie",
+    "OscillatorRotation",
+    "Projected",
+    "RK4",
+    "RigidBodyFlow",
+    "RotorSplitting",
     # S_rise_statistics (now geomint.studies') is set on this module by geomint/__init__.py, which keeps the earlier
     # public name reachable here without integrators/ importing studies (a circle): pyright cannot see it
-    "SCHEMES", "S_rise_statistics",  # pyright: ignore[reportUnsupportedDunderAll]
-    "Strang", "Suzuki4", "SuzukiUmeno8", "SymmetrizedItohAbe", "Traits", "Yoshida4",
-    "Yoshida6", "resolve",
+    "SCHEMES",
+    "S_rise_statistics",  # pyright: ignore[reportUnsupportedDunderAll]
+    "Strang",
+    "Suzuki4",
+    "SuzukiUmeno8",
+    "SymmetrizedItohAbe",
+    "Traits",
+    "Yoshida4",
+    "Yoshida6",
+    "resolve",
 ]

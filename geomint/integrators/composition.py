@@ -37,20 +37,76 @@ def _closed_form_4(root_of, stages):
 SCHEMES = {
     "yoshida4": (4, "Yoshida 1990, doi:10.1016/0375-9601(90)90092-3", _closed_form_4(2, 3)),
     "suzuki4": (4, "Suzuki 1990, doi:10.1016/0375-9601(90)90962-N", _closed_form_4(4, 5)),
-    "yoshida6": (6, "Yoshida 1990, doi:10.1016/0375-9601(90)90092-3", tuple(map(Decimal, (
-        "0.78451361047755726381949763", "0.23557321335935813368479318",
-        "-1.17767998417887100694641568", "1.31518632068391121888424973")))),
-    "kahan_li6": (6, "Kahan and Li 1997, doi:10.1090/S0025-5718-97-00873-9", tuple(map(Decimal, (
-        "0.39216144400731413927925056", "0.33259913678935943859974864", "-0.70624617255763935980996482",
-        "0.08221359629355080023149045", "0.79854399093482996339895035")))),
-    "suzuki_umeno8": (8, "Suzuki and Umeno 1993; McLachlan 1995, doi:10.1137/0916010", tuple(map(Decimal, (
-        "0.74167036435061295344822780", "-0.40910082580003159399730010", "0.19075471029623837995387626",
-        "-0.57386247111608226665638773", "0.29906418130365592384446354", "0.33462491824529818378495798",
-        "0.31529309239676659663205666", "-0.79688793935291635401978884")))),
-    "kahan_li8": (8, "Kahan and Li 1997, doi:10.1090/S0025-5718-97-00873-9", tuple(map(Decimal, (
-        "0.13020248308889008087881763", "0.56116298177510838456196441", "-0.38947496264484728640807860",
-        "0.15884190655515560089621075", "-0.39590389413323757733623154", "0.18453964097831570709183254",
-        "0.25837438768632204729397911", "0.29501172360931029887096624", "-0.60550853383003451169892108")))),
+    "yoshida6": (
+        6,
+        "Yoshida 1990, doi:10.1016/0375-9601(90)90092-3",
+        tuple(
+            map(
+                Decimal,
+                (
+                    "0.78451361047755726381949763",
+                    "0.23557321335935813368479318",
+                    "-1.17767998417887100694641568",
+                    "1.31518632068391121888424973",
+                ),
+            )
+        ),
+    ),
+    "kahan_li6": (
+        6,
+        "Kahan and Li 1997, doi:10.1090/S0025-5718-97-00873-9",
+        tuple(
+            map(
+                Decimal,
+                (
+                    "0.39216144400731413927925056",
+                    "0.33259913678935943859974864",
+                    "-0.70624617255763935980996482",
+                    "0.08221359629355080023149045",
+                    "0.79854399093482996339895035",
+                ),
+            )
+        ),
+    ),
+    "suzuki_umeno8": (
+        8,
+        "Suzuki and Umeno 1993; McLachlan 1995, doi:10.1137/0916010",
+        tuple(
+            map(
+                Decimal,
+                (
+                    "0.74167036435061295344822780",
+                    "-0.40910082580003159399730010",
+                    "0.19075471029623837995387626",
+                    "-0.57386247111608226665638773",
+                    "0.29906418130365592384446354",
+                    "0.33462491824529818378495798",
+                    "0.31529309239676659663205666",
+                    "-0.79688793935291635401978884",
+                ),
+            )
+        ),
+    ),
+    "kahan_li8": (
+        8,
+        "Kahan and Li 1997, doi:10.1090/S0025-5718-97-00873-9",
+        tuple(
+            map(
+                Decimal,
+                (
+                    "0.13020248308889008087881763",
+                    "0.56116298177510838456196441",
+                    "-0.38947496264484728640807860",
+                    "0.15884190655515560089621075",
+                    "-0.39590389413323757733623154",
+                    "0.18453964097831570709183254",
+                    "0.25837438768632204729397911",
+                    "0.29501172360931029887096624",
+                    "-0.60550853383003451169892108",
+                ),
+            )
+        ),
+    ),
 }
 
 
@@ -90,7 +146,9 @@ class Composition(Programmed, Integrator):
         if not isinstance(self.scheme, str) or self.scheme not in SCHEMES:
             raise ValueError(f"`scheme` must be one of {sorted(SCHEMES)}; got {self.scheme!r}.")
         if not self.base.whole_field:
-            raise ValueError(f"`base` must integrate the whole field; {self.base!r} integrates only the {self.base.flows[0]} flow.")
+            raise ValueError(
+                f"`base` must integrate the whole field; {self.base!r} integrates only the {self.base.flows[0]} flow."
+            )
         if not (self.base.symmetric and self.base.order == 2):
             raise ValueError(
                 f"`base` must be symmetric and of order 2 for {self.scheme!r} to reach order {self.order}; "
@@ -101,8 +159,13 @@ class Composition(Programmed, Integrator):
 
     @property
     def traits(self) -> Traits:
-        return Traits(order=SCHEMES[self.scheme][0], energy_exact=self.base.energy_exact, dissipative=self.monotone,
-                      symmetric=not self.monotone, implicit=self.base.implicit or self.monotone)
+        return Traits(
+            order=SCHEMES[self.scheme][0],
+            energy_exact=self.base.energy_exact,
+            dissipative=self.monotone,
+            symmetric=not self.monotone,
+            implicit=self.base.implicit or self.monotone,
+        )
 
     def program(self) -> Program:
         base = program_of(self.base)

@@ -86,9 +86,12 @@ def method_from_data(data: str | Mapping[str, Any], key: str = "method") -> Inte
         if option == "name":
             continue
         if option not in options:
-            raise MethodDataError(f"{key}.{option}", f"unknown option of {name!r}; it takes "
-                                                     f"{', '.join(sorted(options)) or 'none'}"
-                                                     f"{did_you_mean(option, options)}")
+            raise MethodDataError(
+                f"{key}.{option}",
+                f"unknown option of {name!r}; it takes "
+                f"{', '.join(sorted(options)) or 'none'}"
+                f"{did_you_mean(option, options)}",
+            )
         nested = isinstance(getattr(defaults, option), Integrator)
         kwargs[option] = method_from_data(value, f"{key}.{option}") if nested else value
     try:

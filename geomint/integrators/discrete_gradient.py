@@ -50,7 +50,11 @@ class DiscreteGradient(Integrator):
     damped: ClassVar[bool] = False
 
     def __post_init__(self) -> None:
-        if isinstance(self.max_newton_iter, bool) or not isinstance(self.max_newton_iter, int) or not 1 <= self.max_newton_iter <= 10**6:
+        if (
+            isinstance(self.max_newton_iter, bool)
+            or not isinstance(self.max_newton_iter, int)
+            or not 1 <= self.max_newton_iter <= 10**6
+        ):
             raise ValueError(f"`max_newton_iter` must be an integer in [1, 10**6]; got {self.max_newton_iter!r}.")
         if not isinstance(self.compensated, bool):
             raise TypeError(f"`compensated` must be True or False; got {self.compensated!r}.")
@@ -59,7 +63,14 @@ class DiscreteGradient(Integrator):
         return np.empty(0)
 
     def stage(self, system: Any) -> StageData:
-        return layout.LEAF_DISCRETE_GRADIENT, self.kind, self.max_newton_iter, self.damped, self.compensated, self._coeffs()
+        return (
+            layout.LEAF_DISCRETE_GRADIENT,
+            self.kind,
+            self.max_newton_iter,
+            self.damped,
+            self.compensated,
+            self._coeffs(),
+        )
 
     def error_estimate(self) -> tuple[int, float]:
         """Against the explicit RK4 step from the same state (``layout.RK4_REFERENCE``); damped methods,
@@ -68,12 +79,19 @@ class DiscreteGradient(Integrator):
 
     def lower(self, system: Any) -> layout.DiscreteGradientStep:
         return layout.DiscreteGradientStep(
-            layout.KIND_MARKERS[self.kind](self.kind), self.max_newton_iter,
-            layout.Damped(True) if self.damped else layout.Undamped(False), self.compensated, self._coeffs()
+            layout.KIND_MARKERS[self.kind](self.kind),
+            self.max_newton_iter,
+            layout.Damped(True) if self.damped else layout.Undamped(False),
+            self.compensated,
+            self._coeffs(),
         )
 
-    def discrete_gradients(self, system: Any, x: npt.ArrayLike, x_new: npt.ArrayLike,
-                           ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    def discrete_gradients(
+        self,
+        system: Any,
+        x: npt.ArrayLike,
+        x_new: npt.ArrayLike,
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
         """``(dgH, dgS, Jbar)`` at the pair of states ``(x, x_new)``, as the step uses them.
 
         ``dgH . (x_new - x) = H(x_new) - H(x)`` to round-off (likewise for S),
@@ -196,7 +214,9 @@ class AVF(DiscreteGradient):
     def __post_init__(self) -> None:
         super().__post_init__()
         for arg, value, low, high in (("nodes", self.nodes, 1, 16), ("degree", self.degree, 1, 32)):
-            if value is not None and (isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high):
+            if value is not None and (
+                isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high
+            ):
                 raise ValueError(f"`{arg}` must be None or an integer in [{low}, {high}]; got {value!r}.")
         if self.nodes is not None and self.degree is not None and 2 * self.nodes < self.degree:
             raise ValueError(

@@ -65,7 +65,9 @@ class RigidBodyFlow(_HamiltonianFlow):
     """
 
     name: ClassVar[str] = "rigid_body_flow"
-    traits: ClassVar[Traits] = Traits(order=math.inf, energy_exact=True, dissipative=True, symmetric=True, implicit=False)
+    traits: ClassVar[Traits] = Traits(
+        order=math.inf, energy_exact=True, dissipative=True, symmetric=True, implicit=False
+    )
     leaf_code: ClassVar[int] = layout.LEAF_RIGID_BODY_FLOW
     applies_to: ClassVar[str] = "quadratic H = (a x^2 + b y^2 + c z^2)/2 with J = m"
 
@@ -97,7 +99,9 @@ class OscillatorRotation(_HamiltonianFlow):
     """
 
     name: ClassVar[str] = "oscillator_rotation"
-    traits: ClassVar[Traits] = Traits(order=math.inf, energy_exact=True, dissipative=True, symmetric=True, implicit=False)
+    traits: ClassVar[Traits] = Traits(
+        order=math.inf, energy_exact=True, dissipative=True, symmetric=True, implicit=False
+    )
     leaf_code: ClassVar[int] = layout.LEAF_ROTATION
     applies_to: ClassVar[str] = "H = |x|^2/2 with a constant J"
 

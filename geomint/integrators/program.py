@@ -65,8 +65,10 @@ class Program:
 def _markers(leaves, damped):
     """``ComposedStep.uses`` from the ``(leaf code, kind code)`` pairs a program can run, in a fixed order (one
     compiled type per set), and ``Damped(True)`` last where a stage is ``damped``."""
-    markers = tuple(layout.KIND_MARKERS[kind](kind) if leaf == layout.LEAF_DISCRETE_GRADIENT else
-                    layout.LEAF_MARKERS[leaf](leaf) for leaf, kind in sorted(leaves))
+    markers = tuple(
+        layout.KIND_MARKERS[kind](kind) if leaf == layout.LEAF_DISCRETE_GRADIENT else layout.LEAF_MARKERS[leaf](leaf)
+        for leaf, kind in sorted(leaves)
+    )
     return markers + ((layout.Damped(True),) if damped else ())
 
 
@@ -74,6 +76,7 @@ class Programmed:
     """Mixin for methods built on sub-integrators and lowered through ``program()``."""
 
     if TYPE_CHECKING:  # for pyright only: each method using the mixin defines it (``program_of`` asks hasattr)
+
         def program(self) -> Program: ...
 
     def sub_methods(self) -> tuple[Integrator, ...]:
@@ -90,11 +93,16 @@ class Programmed:
 def program_of(method: Integrator) -> Program:
     """The program of ``method``: its own, or one stage of it on the full field."""
     # (pyright does not narrow an Integrator by hasattr: the methods with a program are the Programmed ones)
-    return (method.program()  # pyright: ignore[reportAttributeAccessIssue]
-            if hasattr(method, "program") else Program(((method, "full", 1.0),)))
+    return (
+        method.program()  # pyright: ignore[reportAttributeAccessIssue]
+        if hasattr(method, "program")
+        else Program(((method, "full", 1.0),))
+    )
 
 
 def check_flow(argument: str, method: Integrator, flow: str) -> None:
     """Raise ``ValueError`` if ``method`` cannot integrate the sub-flow ``flow``."""
     if flow not in method.flows:
-        raise ValueError(f"`{argument}` must integrate the {flow} flow; {method!r} integrates only the {method.flows[0]} flow.")
+        raise ValueError(
+            f"`{argument}` must integrate the {flow} flow; {method!r} integrates only the {method.flows[0]} flow."
+        )

@@ -57,10 +57,14 @@ class Projected(Programmed, Integrator):
 
     def __post_init__(self) -> None:
         if not isinstance(self.method, Integrator) or isinstance(self.method, Projected):
-            raise TypeError(f"`method` must be a geomint Integrator that is not already projected; got {self.method!r}.")
+            raise TypeError(
+                f"`method` must be a geomint Integrator that is not already projected; got {self.method!r}."
+            )
         if not self.method.whole_field:
-            raise ValueError(f"`method` must integrate the whole field; {self.method!r} integrates only the "
-                             f"{self.method.flows[0]} flow.")
+            raise ValueError(
+                f"`method` must integrate the whole field; {self.method!r} integrates only the "
+                f"{self.method.flows[0]} flow."
+            )
         if not isinstance(self.symmetric, bool):
             raise TypeError(f"`symmetric` must be True or False; got {self.symmetric!r}.")
         if self.symmetric and not self.method.symmetric:
@@ -73,8 +77,13 @@ class Projected(Programmed, Integrator):
 
     @property
     def traits(self) -> Traits:
-        return Traits(order=self.method.order, energy_exact=True, dissipative=True, symmetric=self.symmetric,
-                      implicit=self.method.implicit)
+        return Traits(
+            order=self.method.order,
+            energy_exact=True,
+            dissipative=True,
+            symmetric=self.symmetric,
+            implicit=self.method.implicit,
+        )
 
     def program(self) -> Program:
         inner = program_of(self.method)
@@ -95,4 +104,3 @@ class Projected(Programmed, Integrator):
         if isinstance(self.method, EmbeddedRungeKutta):
             return self.method.lower(system, projection=layout.STANDARD, max_iter=self.max_iter)
         return super().lower(system)
-

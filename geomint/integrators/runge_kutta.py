@@ -61,16 +61,27 @@ class EmbeddedRungeKutta(Integrator):
     def error_estimate(self) -> tuple[int, float]:
         return layout.EMBEDDED, self.error_order
 
-    def lower(self, system: Any, projection: int = layout.NO_PROJECTION, max_iter: int = 50,
-              ) -> layout.EmbeddedPairStep:
+    def lower(
+        self,
+        system: Any,
+        projection: int = layout.NO_PROJECTION,
+        max_iter: int = 50,
+    ) -> layout.EmbeddedPairStep:
         a_rows, b, _, e, e_low = self.tableau[:5]
         s = len(b)
         a = np.zeros((s, s))
         for i, row in enumerate(a_rows):
-            a[i, :len(row)] = row
+            a[i, : len(row)] = row
         slots = math.ceil(3 * (s + 1) / layout.WORK)
-        return layout.EmbeddedPairStep(a, np.array(b, dtype=np.float64), np.array(e, dtype=np.float64),
-                                       np.array(e_low, dtype=np.float64), projection, max_iter, slots)
+        return layout.EmbeddedPairStep(
+            a,
+            np.array(b, dtype=np.float64),
+            np.array(e, dtype=np.float64),
+            np.array(e_low, dtype=np.float64),
+            projection,
+            max_iter,
+            slots,
+        )
 
 
 @dataclass(frozen=True)

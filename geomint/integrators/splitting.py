@@ -31,13 +31,19 @@ class _Splitting(Programmed, Integrator):
         check_flow("gradient_part", self.gradient_part, "gradient")
         for argument, method in (("hamiltonian_part", self.hamiltonian_part), ("gradient_part", self.gradient_part)):
             if isinstance(method, Programmed):
-                raise TypeError(f"`{argument}` must be a one-step method (Gonzalez(), AVF(), RK4(), an exact flow); "
-                                f"got {method!r}.")
+                raise TypeError(
+                    f"`{argument}` must be a one-step method (Gonzalez(), AVF(), RK4(), an exact flow); got {method!r}."
+                )
 
     def _traits(self, order, symmetric):
         a, b = self.hamiltonian_part, self.gradient_part
-        return Traits(order=order, energy_exact=a.energy_exact and b.energy_exact, dissipative=a.dissipative and b.dissipative,
-                      symmetric=symmetric, implicit=a.implicit or b.implicit)
+        return Traits(
+            order=order,
+            energy_exact=a.energy_exact and b.energy_exact,
+            dissipative=a.dissipative and b.dissipative,
+            symmetric=symmetric,
+            implicit=a.implicit or b.implicit,
+        )
 
     def sub_methods(self) -> tuple[Integrator, ...]:
         return (self.hamiltonian_part, self.gradient_part)

@@ -46,8 +46,11 @@ def xi_of(gh: Components, gs: Components, j: Components | None, eps: float) -> C
     d = (gh[1] * a[2] - gh[2] * a[1], gh[2] * a[0] - gh[0] * a[2], gh[0] * a[1] - gh[1] * a[0])
     if j is None:
         return (0.0 + eps * d[0], 0.0 + eps * d[1], 0.0 + eps * d[2])
-    return (gh[1] * j[2] - gh[2] * j[1] + eps * d[0], gh[2] * j[0] - gh[0] * j[2] + eps * d[1],
-            gh[0] * j[1] - gh[1] * j[0] + eps * d[2])
+    return (
+        gh[1] * j[2] - gh[2] * j[1] + eps * d[0],
+        gh[2] * j[0] - gh[0] * j[2] + eps * d[1],
+        gh[0] * j[1] - gh[1] * j[0] + eps * d[2],
+    )
 
 
 def curl(system: Any, points: npt.NDArray[np.float64], step: float) -> npt.NDArray[np.float64]:  # a MetriplecticSystem
@@ -55,4 +58,3 @@ def curl(system: Any, points: npt.NDArray[np.float64], step: float) -> npt.NDArr
     D = np.stack([(system.J(points + step * e) - system.J(points - step * e)) / (2 * step) for e in np.eye(3)], axis=2)
     # D[n, i, j] = d J_i / d x_j
     return np.stack([D[:, 2, 1] - D[:, 1, 2], D[:, 0, 2] - D[:, 2, 0], D[:, 1, 0] - D[:, 0, 1]], axis=1)
-

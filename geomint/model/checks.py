@@ -25,9 +25,12 @@ def check_structure(system: Any) -> None:  # a MetriplecticSystem (model.system 
         _check_samples(system)
     except _user_errors.UserFunctionError as error:
         raise _user_errors.UserFunctionError(
-            error.function, error.x, error.__cause__,
+            error.function,
+            error.x,
+            error.__cause__,
             "The structure checks evaluate the functions at sample points in [-1, 1]^3 and 1e-6 around them: "
-            "return NaN where a function is undefined there, or pass check=False.") from error.__cause__
+            "return NaN where a function is undefined there, or pass check=False.",
+        ) from error.__cause__
 
 
 def _check_samples(system):
@@ -39,20 +42,37 @@ def _check_samples(system):
     step = 1e-6
     for label, values, grads in (("grad_H", H, grad_H), ("grad_S", S, grad_S)):
         fd = np.stack(
-            [(_fn_values(system, points + step * e, label) - _fn_values(system, points - step * e, label)) / (2 * step)
-             for e in np.eye(3)], axis=1)
+            [
+                (_fn_values(system, points + step * e, label) - _fn_values(system, points - step * e, label))
+                / (2 * step)
+                for e in np.eye(3)
+            ],
+            axis=1,
+        )
         # central differences carry round-off ~ eps |F| / step: allow 1e-7 |F| besides 1e-5 relative
         size = np.maximum(np.abs(grads[finite]), np.abs(fd)).max(axis=1) + 1e-2 * np.abs(values[finite])
         _require(label, points, grads[finite], fd, "match finite differences of " + label[5:], scale=size)
     casimir = np.cross(grad_S[finite], J[finite])
-    _require("J", points, casimir, np.zeros_like(casimir), "satisfy grad S x J = 0 (S must be a Casimir of P)",
-             scale=np.linalg.norm(grad_S[finite], axis=1) * np.linalg.norm(J[finite], axis=1))
+    _require(
+        "J",
+        points,
+        casimir,
+        np.zeros_like(casimir),
+        "satisfy grad S x J = 0 (S must be a Casimir of P)",
+        scale=np.linalg.norm(grad_S[finite], axis=1) * np.linalg.norm(J[finite], axis=1),
+    )
     from . import axial  # [R3], imported on use: the model's core imports no 3-D-only module
 
     curl = axial.curl(system, points, step)
     jacobi = np.sum(J[finite] * curl, axis=1)
-    _require("J", points, jacobi, np.zeros_like(jacobi), "satisfy Jacobi, J . curl J = 0",
-             scale=np.linalg.norm(J[finite], axis=1) * (np.linalg.norm(curl, axis=1) + 1.0))
+    _require(
+        "J",
+        points,
+        jacobi,
+        np.zeros_like(jacobi),
+        "satisfy Jacobi, J . curl J = 0",
+        scale=np.linalg.norm(J[finite], axis=1) * (np.linalg.norm(curl, axis=1) + 1.0),
+    )
     if system.functions.poisson_form == "matrix":
         for x in points:
             P = np.asarray(system.functions.poisson(x.copy(), system._params))
@@ -102,8 +122,13 @@ def _check_rigid_body(system, moments):
     if not all(m > 0.0 for m in moments):
         raise ValueError(f"`exact_flows['rigid_body_flow']` must be positive moments (a, b, c); got {moments!r}.")
     _, _, grad_H, _, J = system._evaluate(SAMPLES)
-    _require("exact_flows", SAMPLES, grad_H, SAMPLES * np.array(moments),
-             f"hold for rigid_body_flow: grad H = (a x, b y, c z) with (a, b, c) = {moments}")
+    _require(
+        "exact_flows",
+        SAMPLES,
+        grad_H,
+        SAMPLES * np.array(moments),
+        f"hold for rigid_body_flow: grad H = (a x, b y, c z) with (a, b, c) = {moments}",
+    )
     _require("exact_flows", SAMPLES, J, SAMPLES, "hold for rigid_body_flow: J = m")
 
 
@@ -114,9 +139,14 @@ def _check_rotors(system, data):
     for j, e in enumerate(np.eye(3)):
         column = (system.grad_H(SAMPLES + step * e) - system.grad_H(SAMPLES - step * e)) / (2 * step)
         mixed = np.delete(column, j, axis=1)
-        _require("exact_flows", SAMPLES, mixed, np.zeros_like(mixed),
-                 "hold for rotor_splitting: H separable, d grad_H_i / d x_j = 0 for i != j",
-                 scale=np.abs(column).max(axis=1) + 1.0)
+        _require(
+            "exact_flows",
+            SAMPLES,
+            mixed,
+            np.zeros_like(mixed),
+            "hold for rotor_splitting: H separable, d grad_H_i / d x_j = 0 for i != j",
+            scale=np.abs(column).max(axis=1) + 1.0,
+        )
 
 
 def _check_rotation(system, data):
@@ -125,8 +155,11 @@ def _check_rotation(system, data):
     _require("exact_flows", SAMPLES, J, np.broadcast_to(J[0], J.shape), "hold for oscillator_rotation: J constant")
 
 
-_EXACT_FLOW_CHECKS = {"rigid_body_flow": _check_rigid_body, "rotor_splitting": _check_rotors,
-                      "oscillator_rotation": _check_rotation}
+_EXACT_FLOW_CHECKS = {
+    "rigid_body_flow": _check_rigid_body,
+    "rotor_splitting": _check_rotors,
+    "oscillator_rotation": _check_rotation,
+}
 
 
 def check_exact_flows(system: Any) -> None:  # a MetriplecticSystem (model.system imports this module)

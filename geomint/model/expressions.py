@@ -59,11 +59,22 @@ if TYPE_CHECKING:
 
 #: function name in a formula -> (sympy function, how the generated code computes it)
 FUNCTIONS = {
-    "exp": sympy.exp, "log": sympy.log, "sqrt": sympy.sqrt, "abs": sympy.Abs,
-    "sin": sympy.sin, "cos": sympy.cos, "tan": sympy.tan,
-    "sinh": sympy.sinh, "cosh": sympy.cosh, "tanh": sympy.tanh,
-    "asin": sympy.asin, "acos": sympy.acos, "atan": sympy.atan,
-    "asinh": sympy.asinh, "acosh": sympy.acosh, "atanh": sympy.atanh,
+    "exp": sympy.exp,
+    "log": sympy.log,
+    "sqrt": sympy.sqrt,
+    "abs": sympy.Abs,
+    "sin": sympy.sin,
+    "cos": sympy.cos,
+    "tan": sympy.tan,
+    "sinh": sympy.sinh,
+    "cosh": sympy.cosh,
+    "tanh": sympy.tanh,
+    "asin": sympy.asin,
+    "acos": sympy.acos,
+    "atan": sympy.atan,
+    "asinh": sympy.asinh,
+    "acosh": sympy.acosh,
+    "atanh": sympy.atanh,
 }
 COORDINATES = ("x", "y", "z")
 CONSTANTS = {"pi": sympy.pi}
@@ -71,8 +82,10 @@ MAX_LENGTH = 2000
 MAX_NODES = 400
 _MAX_LOG10 = 300.0  # a constant power beyond 1e300 is refused (it would overflow float64 or hang sympy)
 _BINARY = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.Pow: "**"}
-_GRAMMAR = (f"numbers, {', '.join(COORDINATES)}, pi, parameter names, + - * / **, unary -, "
-            f"and the functions {', '.join(FUNCTIONS)}")
+_GRAMMAR = (
+    f"numbers, {', '.join(COORDINATES)}, pi, parameter names, + - * / **, unary -, "
+    f"and the functions {', '.join(FUNCTIONS)}"
+)
 _SYMBOLS = {name: sympy.Symbol(name, real=True) for name in COORDINATES}
 _GENERATOR_VERSION = "1"
 
@@ -101,7 +114,7 @@ def parse(field: str, text: str, parameters: Iterable[str] = ()) -> sympy.Expr:
     if len(text) > MAX_LENGTH:
         raise ValueError(f"`{field}` is {len(text)} characters long; formulas are limited to {MAX_LENGTH}.")
     if not text.strip():
-        raise ValueError(f"`{field}` is empty; write a formula such as \"x**2/2\".")
+        raise ValueError(f'`{field}` is empty; write a formula such as "x**2/2".')
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as exc:
@@ -156,14 +169,22 @@ class _Builder:
     def binary(self, node):
         left, right = self.build(node.left), self.build(node.right)
         if isinstance(node.op, ast.Pow):
-            if left.is_Number and right.is_Number and left != 0 \
-                    and abs(float(right)) * abs(math.log10(abs(float(left)))) > _MAX_LOG10:
+            if (
+                left.is_Number
+                and right.is_Number
+                and left != 0
+                and abs(float(right)) * abs(math.log10(abs(float(left)))) > _MAX_LOG10
+            ):
                 self.refuse(node, "constant power beyond 1e300")
             return sympy.Pow(left, right)
         if isinstance(node.op, ast.Div) and right == 0:
             self.refuse(node, "division by zero")
-        return {ast.Add: lambda: left + right, ast.Sub: lambda: left - right, ast.Mult: lambda: left * right,
-                ast.Div: lambda: left / right}[type(node.op)]()
+        return {
+            ast.Add: lambda: left + right,
+            ast.Sub: lambda: left - right,
+            ast.Mult: lambda: left * right,
+            ast.Div: lambda: left / right,
+        }[type(node.op)]()
 
     def call(self, node):
         if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
@@ -186,11 +207,19 @@ def check_parameters(params: Mapping[str, float], field: str = "params") -> dict
     reserved = set(COORDINATES) | set(CONSTANTS) | set(FUNCTIONS)
     out = {}
     for name, value in params.items():
-        if not isinstance(name, str) or not name.isidentifier() or name.startswith("_") or name in reserved \
-                or keyword.iskeyword(name) or len(name) > 50:
-            raise ValueError(f"`{field}` name {name!r} must be an identifier of at most 50 characters, not starting "
-                             f"with `_`, not a Python keyword and not one of {sorted(reserved)}; rename it, e.g. `a`, "
-                             "`sigma`, `r2`.")
+        if (
+            not isinstance(name, str)
+            or not name.isidentifier()
+            or name.startswith("_")
+            or name in reserved
+            or keyword.iskeyword(name)
+            or len(name) > 50
+        ):
+            raise ValueError(
+                f"`{field}` name {name!r} must be an identifier of at most 50 characters, not starting "
+                f"with `_`, not a Python keyword and not one of {sorted(reserved)}; rename it, e.g. `a`, "
+                "`sigma`, `r2`."
+            )
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise ValueError(f"`{field}.{name}` must be a finite real number; got {value!r}.")
         out[name] = float(value)
@@ -218,8 +247,11 @@ def _cross(a, b):
 
 def _curl(J):
     x, y, z = (_SYMBOLS[c] for c in COORDINATES)
-    return (sympy.diff(J[2], y) - sympy.diff(J[1], z), sympy.diff(J[0], z) - sympy.diff(J[2], x),
-            sympy.diff(J[1], x) - sympy.diff(J[0], y))
+    return (
+        sympy.diff(J[2], y) - sympy.diff(J[1], z),
+        sympy.diff(J[0], z) - sympy.diff(J[2], x),
+        sympy.diff(J[1], x) - sympy.diff(J[0], y),
+    )
 
 
 def _residual(expressions, values):
@@ -232,8 +264,13 @@ def _residual(expressions, values):
     return residual
 
 
-def check_structure(grad_S: Sequence[Any], J: Sequence[Any] | None = None, P: Sequence[Sequence[Any]] | None = None,
-                    values: Mapping[str, float] | None = None, prefix: str = "") -> None:
+def check_structure(
+    grad_S: Sequence[Any],
+    J: Sequence[Any] | None = None,
+    P: Sequence[Sequence[Any]] | None = None,
+    values: Mapping[str, float] | None = None,
+    prefix: str = "",
+) -> None:
     """Refuse a Poisson tensor that is not one, or an S that is not its Casimir.
 
     Checks symbolically (``sympy.simplify`` of each residual; an identity that
@@ -256,17 +293,23 @@ def check_structure(grad_S: Sequence[Any], J: Sequence[Any] | None = None, P: Se
     if P is not None:
         skew = _residual([P[i][j] + P[j][i] for i in range(3) for j in range(i, 3)], values)
         if any(r != 0 for r in skew):
-            raise ValueError(f"`{prefix}P` is not skew: P + P^T = 0 fails; the residual (upper triangle, row by row) "
-                             f"simplifies to {skew}. Write P with P[j][i] = -P[i][j] and a zero diagonal.")
+            raise ValueError(
+                f"`{prefix}P` is not skew: P + P^T = 0 fails; the residual (upper triangle, row by row) "
+                f"simplifies to {skew}. Write P with P[j][i] = -P[i][j] and a zero diagonal."
+            )
         J = axial_of(P)
     jacobi = _residual([sum(a * b for a, b in zip(J, _curl(J)))], values)[0]  # pyright: ignore[reportArgumentType]  # J or P given
     if jacobi != 0:
-        raise ValueError(f"`{prefix}J` fails Jacobi: J . curl J = 0 does not hold; the residual simplifies to {jacobi}. "
-                         "A J parallel to a gradient, J = f grad C, always satisfies it.")
+        raise ValueError(
+            f"`{prefix}J` fails Jacobi: J . curl J = 0 does not hold; the residual simplifies to {jacobi}. "
+            "A J parallel to a gradient, J = f grad C, always satisfies it."
+        )
     casimir = _residual(_cross(grad_S, J), values)
     if any(r != 0 for r in casimir):
-        raise ValueError(f"`{prefix}S` is not a Casimir of J: grad S x J = 0 fails; the residual simplifies to {casimir}. "
-                         "J must be parallel to grad S everywhere.")
+        raise ValueError(
+            f"`{prefix}S` is not a Casimir of J: grad S x J = 0 fails; the residual simplifies to {casimir}. "
+            "J must be parallel to grad S everywhere."
+        )
 
 
 # -- 4. code generation and the disk cache ------------------------------------------------
@@ -280,8 +323,10 @@ class _NumbaPrinter(PythonCodePrinter):
 
     def __init__(self, parameters):
         super().__init__({"fully_qualified_modules": True, "standard": "python3"})
-        self.names = {**{c: f"x[{i}]" for i, c in enumerate(COORDINATES)},
-                      **{name: f"p[{i}]" for i, name in enumerate(parameters)}}
+        self.names = {
+            **{c: f"x[{i}]" for i, c in enumerate(COORDINATES)},
+            **{name: f"p[{i}]" for i, name in enumerate(parameters)},
+        }
 
     def _print_Symbol(self, expr):
         return self.names[expr.name]
@@ -304,8 +349,15 @@ class _NumbaPrinter(PythonCodePrinter):
         return f"numpy.sign({self._print(expr.args[0])})"
 
 
-def source(H: sympy.Expr, grad_H: Sequence[sympy.Expr], S: sympy.Expr, grad_S: Sequence[sympy.Expr],
-           poisson: Sequence[Any], poisson_form: str, parameters: Sequence[str]) -> str:
+def source(
+    H: sympy.Expr,
+    grad_H: Sequence[sympy.Expr],
+    S: sympy.Expr,
+    grad_S: Sequence[sympy.Expr],
+    poisson: Sequence[Any],
+    poisson_form: str,
+    parameters: Sequence[str],
+) -> str:
     """The text of the generated module: functions ``H, grad_H, S, grad_S`` and ``J`` or ``P``.
 
     ``poisson`` is the axial vector (3 expressions) or the matrix (3x3) as
@@ -314,8 +366,13 @@ def source(H: sympy.Expr, grad_H: Sequence[sympy.Expr], S: sympy.Expr, grad_S: S
     printer = _NumbaPrinter(parameters)
     code = printer.doprint
     vector = lambda v: "(" + ", ".join(code(c) for c in v) + ")"  # noqa: E731  # pyright: ignore[reportCallIssue, reportArgumentType]  # doprint gives str here
-    lines = [f"# generated by geomint.expressions (generator {_GENERATOR_VERSION}); parameters p = {list(parameters)}",
-             "import math", "import numpy", "from numba import njit", ""]
+    lines = [
+        f"# generated by geomint.expressions (generator {_GENERATOR_VERSION}); parameters p = {list(parameters)}",
+        "import math",
+        "import numpy",
+        "from numba import njit",
+        "",
+    ]
     bodies = {"H": code(H), "grad_H": vector(grad_H), "S": code(S), "grad_S": vector(grad_S)}
     if poisson_form == "axial":
         bodies["J"] = vector(poisson)
@@ -330,8 +387,10 @@ def cache_directory() -> Path:
     """Where generated modules live: ``<cache root>/expressions`` (``geomint._cache``)."""
     root = _cache.cache_root()
     if root is None or not _cache.writable(root / "expressions"):
-        raise OSError(f"no writable folder for generated code among {[str(c) for c in _cache.candidates()]}; "
-                      "set GEOMINT_CACHE_DIR to a writable folder.")
+        raise OSError(
+            f"no writable folder for generated code among {[str(c) for c in _cache.candidates()]}; "
+            "set GEOMINT_CACHE_DIR to a writable folder."
+        )
     return root / "expressions"
 
 
@@ -357,9 +416,16 @@ def compile_functions(text: str) -> ModuleType:
     return module
 
 
-def build(H: str, S: str, J: Sequence[str] | None = None, P: Sequence[Sequence[str]] | None = None,
-          params: Mapping[str, float] | None = None, eps: float = 1.0, name: str = "expressions", prefix: str = "",
-          ) -> dict[str, Any]:
+def build(
+    H: str,
+    S: str,
+    J: Sequence[str] | None = None,
+    P: Sequence[Sequence[str]] | None = None,
+    params: Mapping[str, float] | None = None,
+    eps: float = 1.0,
+    name: str = "expressions",
+    prefix: str = "",
+) -> dict[str, Any]:
     """The keyword arguments of ``MetriplecticSystem`` for a system given as formulas.
 
     Parameters
@@ -384,33 +450,60 @@ def build(H: str, S: str, J: Sequence[str] | None = None, P: Sequence[Sequence[s
     H_expr, S_expr, poisson = parse_system(H, S, J, P, list(values), prefix)
     form = "axial" if J is not None else "matrix"
     grad_H, grad_S = gradient(H_expr), gradient(S_expr)
-    check_structure(grad_S, J=poisson if form == "axial" else None, P=poisson if form == "matrix" else None,
-                    values=values, prefix=prefix)
+    check_structure(
+        grad_S,
+        J=poisson if form == "axial" else None,
+        P=poisson if form == "matrix" else None,
+        values=values,
+        prefix=prefix,
+    )
     module = compile_functions(source(H_expr, grad_H, S_expr, grad_S, poisson, form, list(values)))
-    kwargs = {"H": module.H, "grad_H": module.grad_H, "S": module.S, "grad_S": module.grad_S,
-              "eps": eps, "params": list(values.values()), "name": name}
+    kwargs = {
+        "H": module.H,
+        "grad_H": module.grad_H,
+        "S": module.S,
+        "grad_S": module.grad_S,
+        "eps": eps,
+        "params": list(values.values()),
+        "name": name,
+    }
     kwargs["J" if form == "axial" else "P"] = module.J if form == "axial" else module.P
     return kwargs
 
 
-def parse_system(H: str, S: str, J: Sequence[str] | None, P: Sequence[Sequence[str]] | None,
-                 parameters: Sequence[str], prefix: str = "") -> tuple[sympy.Expr, sympy.Expr, tuple[Any, ...]]:
+def parse_system(
+    H: str,
+    S: str,
+    J: Sequence[str] | None,
+    P: Sequence[Sequence[str]] | None,
+    parameters: Sequence[str],
+    prefix: str = "",
+) -> tuple[sympy.Expr, sympy.Expr, tuple[Any, ...]]:
     """``(H, S, J or P)`` as sympy expressions (grammar only: no derivatives, no checks).
 
     Exactly one of ``J`` (3 formulas) and ``P`` (3x3 formulas) is given;
     errors name the field with ``prefix`` before it (``system.J[1]``).
     """
     if (J is None) == (P is None):
-        raise ValueError(f"give exactly one of `{prefix}J` (3 formulas, axial vector) and `{prefix}P` "
-                         "(3x3 formulas, skew matrix).")
+        raise ValueError(
+            f"give exactly one of `{prefix}J` (3 formulas, axial vector) and `{prefix}P` (3x3 formulas, skew matrix)."
+        )
     H_expr, S_expr = parse(f"{prefix}H", H, parameters), parse(f"{prefix}S", S, parameters)
     if J is not None:
-        return H_expr, S_expr, tuple(parse(f"{prefix}J[{i}]", c, parameters)
-                                     for i, c in enumerate(_triple(f"{prefix}J", J)))
+        return (
+            H_expr,
+            S_expr,
+            tuple(parse(f"{prefix}J[{i}]", c, parameters) for i, c in enumerate(_triple(f"{prefix}J", J))),
+        )
     rows = _triple(f"{prefix}P", P)
-    return H_expr, S_expr, tuple(
-        tuple(parse(f"{prefix}P[{i}][{j}]", c, parameters) for j, c in enumerate(_triple(f"{prefix}P[{i}]", row)))
-        for i, row in enumerate(rows))
+    return (
+        H_expr,
+        S_expr,
+        tuple(
+            tuple(parse(f"{prefix}P[{i}][{j}]", c, parameters) for j, c in enumerate(_triple(f"{prefix}P[{i}]", row)))
+            for i, row in enumerate(rows)
+        ),
+    )
 
 
 def _triple(field, value):

@@ -33,7 +33,10 @@ _MATRIX_TYPE = numba.types.float64[:, ::1]
 #: per user function: what it returns and the body of an example (the relaxing rigid body's)
 _EXAMPLES = {
     "H": ("a float", "0.5 * (params[0] * x[0]**2 + params[1] * x[1]**2 + params[2] * x[2]**2)"),
-    "grad_H": ("a 3-tuple of floats (fastest) or a float64 array", "(params[0] * x[0], params[1] * x[1], params[2] * x[2])"),
+    "grad_H": (
+        "a 3-tuple of floats (fastest) or a float64 array",
+        "(params[0] * x[0], params[1] * x[1], params[2] * x[2])",
+    ),
     "S": ("a float", "0.5 * (x[0]**2 + x[1]**2 + x[2]**2)"),
     "grad_S": ("a 3-tuple of floats (fastest) or a float64 array", "(x[0], x[1], x[2])"),
     "J": ("a 3-tuple of floats (fastest) or a float64 array", "(x[0], x[1], x[2])"),
@@ -45,8 +48,10 @@ def _how_to_jit(name):
     """How to write the user function ``name`` (``H``, ``grad_H``, ``S``, ``grad_S``, ``J``, ``P``) for numba,
     with an example of that very function."""
     returns, body = _EXAMPLES.get(name, _EXAMPLES["grad_H"])
-    return (f"Write it as a numba function of (x, params), e.g.\n    @numba.njit\n    def {name}(x, params):\n"
-            f"        return {body}\nwith x and params float64 arrays; `{name}` returns {returns}.")
+    return (
+        f"Write it as a numba function of (x, params), e.g.\n    @numba.njit\n    def {name}(x, params):\n"
+        f"        return {body}\nwith x and params float64 arrays; `{name}` returns {returns}."
+    )
 
 
 @dataclass(frozen=True)
@@ -103,13 +108,15 @@ def scalar_function(name: str, fn: Any) -> Any:
 
 
 def vector_function(name: str, fn: Any) -> str:
-    """The vector form ``fn`` returns (``"tuple"``, ``"array"``, or ``"python"`` without numba), else a ``TypeError``."""
+    """The vector form ``fn`` returns (``"tuple"``, ``"array"``, or ``"python"`` without numba), else a
+    ``TypeError``."""
     rtype = _compiled_return_type(name, fn)
     if rtype is None:  # NUMBA_DISABLE_JIT=1: plain Python, any sequence of 3 floats will do
         return "python"
     if rtype not in _VECTOR_FORMS:
         raise TypeError(
-            f"`{name}` must return a 3-tuple of floats or a contiguous float64 array; it returns {rtype}. {_how_to_jit(name)}"
+            f"`{name}` must return a 3-tuple of floats or a contiguous float64 array; it returns {rtype}. "
+            f"{_how_to_jit(name)}"
         )
     return _VECTOR_FORMS[rtype]
 
@@ -125,9 +132,13 @@ def check_shapes(functions: ModelFunctions, params: npt.NDArray[np.float64]) -> 
     """Array-returning functions give 3 values (P a 3x3 matrix) at a sample point: their type cannot
     say so, and the kernels would read past a shorter array."""
     wanted: dict[str, tuple[Callable, tuple[int, ...]]] = {
-        "grad_H": (functions.grad_H, (3,)), "grad_S": (functions.grad_S, (3,))}
+        "grad_H": (functions.grad_H, (3,)),
+        "grad_S": (functions.grad_S, (3,)),
+    }
     wanted["P" if functions.poisson_form == "matrix" else "J"] = (
-        functions.poisson, (3, 3) if functions.poisson_form == "matrix" else (3,))
+        functions.poisson,
+        (3, 3) if functions.poisson_form == "matrix" else (3,),
+    )
     for name, (fn, shape) in wanted.items():
         x = SAMPLES[0].copy()
         try:
@@ -135,6 +146,6 @@ def check_shapes(functions: ModelFunctions, params: npt.NDArray[np.float64]) -> 
         except Exception:  # noqa: BLE001 - undefined at this point is the structure check's business
             continue
         if np.shape(value) != shape:
-            raise ValueError(f"`{name}` must return shape {shape}; at x = {x.tolist()} it returned shape "
-                             f"{np.shape(value)}.")
-
+            raise ValueError(
+                f"`{name}` must return shape {shape}; at x = {x.tolist()} it returned shape {np.shape(value)}."
+            )

@@ -101,10 +101,21 @@ class MetriplecticSystem:
     #: the formulas of a system made by ``from_expressions`` (only there), for saved results
     expressions: dict[str, Any]
 
-    def __init__(self, *, H: Callable[..., Any], grad_H: Callable[..., Any], S: Callable[..., Any],
-                 grad_S: Callable[..., Any], J: Callable[..., Any] | None = None, P: Callable[..., Any] | None = None,
-                 eps: float = 1.0, params: npt.ArrayLike = (), name: str = "custom",
-                 exact_flows: dict[str, Any] | None = None, check: bool = True) -> None:
+    def __init__(
+        self,
+        *,
+        H: Callable[..., Any],
+        grad_H: Callable[..., Any],
+        S: Callable[..., Any],
+        grad_S: Callable[..., Any],
+        J: Callable[..., Any] | None = None,
+        P: Callable[..., Any] | None = None,
+        eps: float = 1.0,
+        params: npt.ArrayLike = (),
+        name: str = "custom",
+        exact_flows: dict[str, Any] | None = None,
+        check: bool = True,
+    ) -> None:
         if (J is None) == (P is None):
             raise ValueError("give exactly one of `J` (axial vector) and `P` (skew matrix) for the Poisson tensor.")
         self.eps = _check_eps(eps)
@@ -119,11 +130,17 @@ class MetriplecticSystem:
             matrix_function("P", P)
         if len(set(forms.values())) != 1:
             listed = ", ".join(f"`{k}` returns a {v}" for k, v in forms.items())
-            raise TypeError(f"grad_H, grad_S and J must return the same kind of vector; {listed}. Make them all tuples.")
+            raise TypeError(
+                f"grad_H, grad_S and J must return the same kind of vector; {listed}. Make them all tuples."
+            )
         self.functions = ModelFunctions(
-            H=scalar["H"], grad_H=grad_H, S=scalar["S"], grad_S=grad_S,
+            H=scalar["H"],
+            grad_H=grad_H,
+            S=scalar["S"],
+            grad_S=grad_S,
             poisson=J if J is not None else P,  # pyright: ignore[reportArgumentType]  # one of them is given
-            vector_form=forms["grad_H"], poisson_form="axial" if J is not None else "matrix",
+            vector_form=forms["grad_H"],
+            poisson_form="axial" if J is not None else "matrix",
         )
         check_shapes(self.functions, self._params)
         self.exact_flows = declared_exact_flows(exact_flows)
@@ -147,8 +164,8 @@ class MetriplecticSystem:
         """
         if "_model" not in self.__dict__:
             f = self.functions
-            self._model = Model(*(first_class(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S, f.poisson)),  # pyright: ignore[reportCallIssue]
-                                self._params, self._origin())  # pyright: ignore[reportCallIssue]  # 5 functions
+            handles = tuple(first_class(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S, f.poisson))
+            self._model = Model(*handles, self._params, self._origin())  # pyright: ignore[reportCallIssue]  # 5 handles
         return self._model
 
     def _origin(self, params=None):
@@ -171,8 +188,9 @@ class MetriplecticSystem:
         """A copy of the parameter vector."""
         return self._params.copy()
 
-    def with_effects(self, *, hamiltonian: bool | None = None, eps: float | None = None,
-                     params: npt.ArrayLike | None = None) -> MetriplecticSystem:
+    def with_effects(
+        self, *, hamiltonian: bool | None = None, eps: float | None = None, params: npt.ArrayLike | None = None
+    ) -> MetriplecticSystem:
         """The same system with the Hamiltonian part switched on/off, another eps and/or other params.
 
         ``hamiltonian=False`` leaves the gradient system ``dx/dt = eps xi_g``
@@ -186,8 +204,10 @@ class MetriplecticSystem:
         if params is not None:
             values = _validate.reals("params", params)
             if values.shape != self._params.shape:
-                raise ValueError(f"`params` must have {self._params.size} values, as the system's; got "
-                                 f"{values.size}: {values.tolist()}.")
+                raise ValueError(
+                    f"`params` must have {self._params.size} values, as the system's; got "
+                    f"{values.size}: {values.tolist()}."
+                )
             other._params = values
             other.__dict__.pop("_model", None)
             check_shapes(other.functions, values)
@@ -246,8 +266,7 @@ class MetriplecticSystem:
             values = [functions[i](x, p) for i in which]
         except Exception:
             self._name_the_raising_function(x)
-        return [float(v) if i < 2 else v if type(v) is tuple else _axial().components(v)
-                for i, v in zip(which, values)]
+        return [float(v) if i < 2 else v if type(v) is tuple else _axial().components(v) for i, v in zip(which, values)]
 
     def _name_the_raising_function(self, x):
         """Re-raise the exception being handled as a ``UserFunctionError`` naming the user function (as is
@@ -342,9 +361,17 @@ class MetriplecticSystem:
         return -self.eps * np.sum(s * s, axis=-1)
 
     @classmethod
-    def from_expressions(cls, *, H: str, S: str, J: Sequence[str] | None = None,
-                         P: Sequence[Sequence[str]] | None = None, params: Mapping[str, float] | None = None,
-                         eps: float = 1.0, name: str = "expressions") -> MetriplecticSystem:
+    def from_expressions(
+        cls,
+        *,
+        H: str,
+        S: str,
+        J: Sequence[str] | None = None,
+        P: Sequence[Sequence[str]] | None = None,
+        params: Mapping[str, float] | None = None,
+        eps: float = 1.0,
+        name: str = "expressions",
+    ) -> MetriplecticSystem:
         """A system from formulas (strings), e.g. ``H="(y**2 + z**2)/2 - r*z"``, ``J=("-x", "0", "sigma")``.
 
         Text is parsed by a whitelist grammar (never evaluated), gradients are exact, the

@@ -40,6 +40,17 @@ work_precision = plot_work_precision
 """Alias of ``plot_work_precision``, the earlier name (``studies.work_precision`` makes the curves it draws)."""
 
 __all__ = [
-    "casimir", "continuation_figure", "draw", "drift", "drift_windows", "energy_error", "invariants",
-    "level_surface", "plot_energy_error", "plot_work_precision", "style", "trajectories", "work_precision",
+    "casimir",
+    "continuation_figure",
+    "draw",
+    "drift",
+    "drift_windows",
+    "energy_error",
+    "invariants",
+    "level_surface",
+    "plot_energy_error",
+    "plot_work_precision",
+    "style",
+    "trajectories",
+    "work_precision",
 ]

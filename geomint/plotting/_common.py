@@ -36,8 +36,11 @@ def style(i: int, n: int = 1) -> dict[str, Any]:
     """
     plt = pyplot()
     colors = plt.get_cmap("tab10").colors
-    return dict(color=colors[i % 10], linestyle=_LINESTYLES[(i // 10) % len(_LINESTYLES)],
-                marker=_MARKERS[(i + i // 10) % len(_MARKERS)] if n > 1 else None)
+    return dict(
+        color=colors[i % 10],
+        linestyle=_LINESTYLES[(i // 10) % len(_LINESTYLES)],
+        marker=_MARKERS[(i + i // 10) % len(_MARKERS)] if n > 1 else None,
+    )
 
 
 def as_list(solutions: Any) -> list[Any]:
@@ -60,8 +63,7 @@ def line_labels(solutions: Sequence[Solution], labels: Sequence[str] | None) -> 
             names = starts
         else:
             names = [f"{method}, {start}" for method, start in zip(methods, starts)]
-    return [name if sol.success else f"{name} failed, t = {sol.t_final:.3g}"
-            for sol, name in zip(solutions, names)]
+    return [name if sol.success else f"{name} failed, t = {sol.t_final:.3g}" for sol, name in zip(solutions, names)]
 
 
 def new_axis(ax: Axes | None, projection: str | None = None) -> Axes:

@@ -17,8 +17,11 @@ if TYPE_CHECKING:
     from ..analysis.continuation import Continuation
 
 
-def continuation_figure(results: Iterable[Continuation], path: str | os.PathLike[str] | None = None, columns: int = 3,
-                        ) -> Figure:
+def continuation_figure(
+    results: Iterable[Continuation],
+    path: str | os.PathLike[str] | None = None,
+    columns: int = 3,
+) -> Figure:
     """Eigenvalue real parts against eps, one panel per ``Continuation`` in ``results``.
 
     For an isolated equilibrium both tangent-plane eigenvalues' real parts are
@@ -66,7 +69,7 @@ def continuation_figure(results: Iterable[Continuation], path: str | os.PathLike
         ax.set_title(f"{result.name}, H0 = {result.H0:g}", fontsize=9)
         ax.grid(True, linewidth=0.4, alpha=0.6)
         ax.legend(fontsize=5.5, loc="best")
-    for ax in axes.ravel()[len(results):]:
+    for ax in axes.ravel()[len(results) :]:
         ax.set_visible(False)
     fig.tight_layout()
     if path is not None:

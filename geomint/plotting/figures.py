@@ -40,8 +40,16 @@ def draw(result: SceneResult, directory: str | os.PathLike[str]) -> list[Path]:
 
 def trajectories(result: SceneResult, ax: Axes | None, legend: bool = True) -> Axes:
     """A scene's trajectories on its level surfaces (``level_surface`` with the scene's centre, view, sections)."""
-    return level_surface(result.system, result.solutions, ax, labels=_scene_labels(result), center=_center(result),
-                         view=result.scene.view, sections=result.scene.sections, legend=legend)
+    return level_surface(
+        result.system,
+        result.solutions,
+        ax,
+        labels=_scene_labels(result),
+        center=_center(result),
+        view=result.scene.view,
+        sections=result.scene.sections,
+        legend=legend,
+    )
 
 
 def invariants(result: SceneResult, ax_H: Axes, ax_S: Axes, legend: bool = True) -> None:
@@ -54,8 +62,9 @@ def invariants(result: SceneResult, ax_H: Axes, ax_S: Axes, legend: bool = True)
 
 def _overview(plt, result):
     fig = plt.figure(figsize=(12.0, 6.6))
-    grid = fig.add_gridspec(2, 2, width_ratios=(1.05, 1.0), hspace=0.42, wspace=0.25, left=0.0, right=1.0,
-                            top=0.86, bottom=0.09)
+    grid = fig.add_gridspec(
+        2, 2, width_ratios=(1.05, 1.0), hspace=0.42, wspace=0.25, left=0.0, right=1.0, top=0.86, bottom=0.09
+    )
     ax3d = fig.add_subplot(grid[:, 0], projection="3d")
     trajectories(result, ax3d, legend=False)
     ax_H, ax_S = fig.add_subplot(grid[0, 1]), fig.add_subplot(grid[1, 1])
@@ -78,8 +87,15 @@ def _shared_key(fig, axes, beside):
     boxes = [ax.get_position() for ax in beside]
     right = max(box.x1 for box in boxes)
     middle = 0.5 * (min(box.y0 for box in boxes) + max(box.y1 for box in boxes))
-    fig.legend([handles[label] for label in labels], labels, loc="center left", bbox_to_anchor=(right + 0.01, middle),
-               fontsize=7, frameon=False, ncol=1 if len(labels) <= 24 else 2)
+    fig.legend(
+        [handles[label] for label in labels],
+        labels,
+        loc="center left",
+        bbox_to_anchor=(right + 0.01, middle),
+        fontsize=7,
+        frameon=False,
+        ncol=1 if len(labels) <= 24 else 2,
+    )
 
 
 def _trajectories_figure(plt, result):
@@ -117,10 +133,15 @@ def _scene_labels(result):
 
 def _title(result):
     scene = result.scene
-    effects = [name for name, on in (("Hamiltonian", scene.hamiltonian), (f"dissipation ε = {scene.eps:g}",
-                                                                           scene.eps > 0)) if on]
-    return (f"{scene.title or scene.name}\n{result.system.name}, {' + '.join(effects) or 'no effect'}, "
-            f"{result.method.name}, h = {scene.h:g}")
+    effects = [
+        name
+        for name, on in (("Hamiltonian", scene.hamiltonian), (f"dissipation ε = {scene.eps:g}", scene.eps > 0))
+        if on
+    ]
+    return (
+        f"{scene.title or scene.name}\n{result.system.name}, {' + '.join(effects) or 'no effect'}, "
+        f"{result.method.name}, h = {scene.h:g}"
+    )
 
 
 def _center(result):
@@ -130,6 +151,9 @@ def _center(result):
     return _level_set.energy_minimiser(result.system)
 
 
-_FIGURES = {"overview": _overview, "trajectories": _trajectories_figure, "invariants": _invariants_figure,
-            "drift": _drift_figure}
-
+_FIGURES = {
+    "overview": _overview,
+    "trajectories": _trajectories_figure,
+    "invariants": _invariants_figure,
+    "drift": _drift_figure,
+}

@@ -27,8 +27,13 @@ _TINY = _diagnostics.EPS / 8  # where exact zeros of an error sit on a log axis
 _ULP_LABEL = "1 ulp (machine epsilon)"  # ε is the dissipation parameter; multiples of machine epsilon are ulp
 
 
-def plot_energy_error(solutions: Solution | Sequence[Solution], ax: Axes | None = None, *,
-                      labels: Sequence[str] | None = None, legend: bool = True) -> Axes:
+def plot_energy_error(
+    solutions: Solution | Sequence[Solution],
+    ax: Axes | None = None,
+    *,
+    labels: Sequence[str] | None = None,
+    legend: bool = True,
+) -> Axes:
     """The running maximum of ``|H - H0| / |H0|`` against t, log scale; 1 ulp (machine epsilon) marked.
 
     Exact zeros are drawn at 1/8 ulp, the bottom of the axis.  (Figures write the dissipation
@@ -39,20 +44,37 @@ def plot_energy_error(solutions: Solution | Sequence[Solution], ax: Axes | None 
     for i, (sol, name) in enumerate(zip(solutions, line_labels(solutions, labels))):
         running = np.maximum.accumulate(_diagnostics.energy_error(sol))
         line = style(i, len(solutions))
-        ax.semilogy(sol.t, np.maximum(running, _TINY), color=line["color"], linestyle=line["linestyle"],
-                    linewidth=1.2, label=name, drawstyle="steps-post")
+        ax.semilogy(
+            sol.t,
+            np.maximum(running, _TINY),
+            color=line["color"],
+            linestyle=line["linestyle"],
+            linewidth=1.2,
+            label=name,
+            drawstyle="steps-post",
+        )
     ulp = _diagnostics.EPS
     ax.axhline(ulp, color="0.4", linewidth=0.9, linestyle=":", label=_ULP_LABEL)
     worst = max(float(_diagnostics.energy_error(sol).max()) for sol in solutions)
     top = max(worst * 4, ulp * 4)
     ax.set_ylim(_TINY / 1.5, top)
-    return _finish(ax, "t", "running max |H - H0| / |H0|",
-                   f"energy: max |H - H0|/|H0| = {worst:.2g} ({worst / ulp:.3g} ulp)", legend and "lower right",
-                   len(solutions))
+    return _finish(
+        ax,
+        "t",
+        "running max |H - H0| / |H0|",
+        f"energy: max |H - H0|/|H0| = {worst:.2g} ({worst / ulp:.3g} ulp)",
+        legend and "lower right",
+        len(solutions),
+    )
 
 
-def casimir(solutions: Solution | Sequence[Solution], ax: Axes | None = None, *, labels: Sequence[str] | None = None,
-            legend: bool = True) -> Axes:
+def casimir(
+    solutions: Solution | Sequence[Solution],
+    ax: Axes | None = None,
+    *,
+    labels: Sequence[str] | None = None,
+    legend: bool = True,
+) -> Axes:
     """``S(t)``, one line per solution; every saved step where S rose beyond round-off is marked."""
     solutions = as_list(solutions)
     ax = new_axis(ax)
@@ -65,12 +87,26 @@ def casimir(solutions: Solution | Sequence[Solution], ax: Axes | None = None, *,
         ax.scatter(sol.t[up], sol.S[up], color="red", marker="x", s=18, zorder=4)
     if rises:
         ax.scatter([], [], color="red", marker="x", s=18, label="S rose (beyond 16 ulps)")
-    return _finish(ax, "t", "S", f"Casimir S: {rises} {'rise' if rises == 1 else 'rises'} beyond round-off", legend and "upper right",
-                   len(solutions), "red" if rises else "black")
+    return _finish(
+        ax,
+        "t",
+        "S",
+        f"Casimir S: {rises} {'rise' if rises == 1 else 'rises'} beyond round-off",
+        legend and "upper right",
+        len(solutions),
+        "red" if rises else "black",
+    )
 
 
-def drift(solutions: Solution | Sequence[Solution], ax: Axes | None = None, *, labels: Sequence[str] | None = None,
-          count: int = 20, t_min: float | None = None, legend: bool = True) -> Axes:
+def drift(
+    solutions: Solution | Sequence[Solution],
+    ax: Axes | None = None,
+    *,
+    labels: Sequence[str] | None = None,
+    count: int = 20,
+    t_min: float | None = None,
+    legend: bool = True,
+) -> Axes:
     """Windowed maxima of ``|H - H0| / |H0|`` on log-log axes, each key with its fitted growth law.
 
     ``count`` log-spaced windows (``geomint.diagnostics.windowed_drift``); the
@@ -90,9 +126,14 @@ def drift(solutions: Solution | Sequence[Solution], ax: Axes | None = None, *, l
     return drift_windows(series, ax, legend=legend)
 
 
-def drift_windows(series: Sequence[tuple[str, npt.NDArray[np.float64], npt.NDArray[np.float64], float]],
-                  ax: Axes | None = None, *, legend: bool = True, law_in_key: bool = True,
-                  linestyles: Sequence[str] | None = None) -> Axes:
+def drift_windows(
+    series: Sequence[tuple[str, npt.NDArray[np.float64], npt.NDArray[np.float64], float]],
+    ax: Axes | None = None,
+    *,
+    legend: bool = True,
+    law_in_key: bool = True,
+    linestyles: Sequence[str] | None = None,
+) -> Axes:
     """``drift`` for maxima already taken: ``series`` holds ``(label, centers, maxima, t_min)`` per line.
 
     For long runs summarised chunk by chunk in a ``geomint.diagnostics.Windows``.
@@ -108,12 +149,16 @@ def drift_windows(series: Sequence[tuple[str, npt.NDArray[np.float64], npt.NDArr
         if linestyles is not None:
             line["linestyle"] = linestyles[i]
         fit = f": {_law_text(p, law)}" if law_in_key else ""
-        ax.loglog(centers[keep], np.maximum(maxima[keep], _TINY), markersize=4, linewidth=1.2, label=name + fit,
-                  **line)
+        ax.loglog(centers[keep], np.maximum(maxima[keep], _TINY), markersize=4, linewidth=1.2, label=name + fit, **line)
     ax.axhline(_diagnostics.EPS, color="0.4", linewidth=0.9, linestyle=":", label=_ULP_LABEL)
-    return _finish(ax, "t", "windowed max |H - H0| / |H0|",
-                   "energy drift: windowed maxima and growth law (zeros drawn at 1/8 ulp)", legend and "best",
-                   len(series))
+    return _finish(
+        ax,
+        "t",
+        "windowed max |H - H0| / |H0|",
+        "energy drift: windowed maxima and growth law (zeros drawn at 1/8 ulp)",
+        legend and "best",
+        len(series),
+    )
 
 
 def _law_text(p, law):
@@ -123,8 +168,14 @@ def _law_text(p, law):
     return law + (f" (p = {p:.2f})" if np.isfinite(p) else "")
 
 
-def plot_work_precision(curves: Curve | Sequence[Curve], ax: Axes | None = None, *, cost: str = "wall",
-                        legend: bool = True, error: str = "global error |x(T) - x_ref(T)|") -> Axes:
+def plot_work_precision(
+    curves: Curve | Sequence[Curve],
+    ax: Axes | None = None,
+    *,
+    cost: str = "wall",
+    legend: bool = True,
+    error: str = "global error |x(T) - x_ref(T)|",
+) -> Axes:
     """Error against cost for ``geomint.studies.Curve`` objects, one line and key each.
 
     ``cost`` is ``"wall"`` (median seconds) or ``"nfev"`` (field evaluations);
@@ -132,16 +183,21 @@ def plot_work_precision(curves: Curve | Sequence[Curve], ax: Axes | None = None,
     Structure-preserving methods (exact H, S never rising) are drawn solid.
     """
     if cost not in ("wall", "nfev"):
-        raise ValueError(f"`cost` must be \"wall\" or \"nfev\"; got {cost!r}.")
+        raise ValueError(f'`cost` must be "wall" or "nfev"; got {cost!r}.')
     curves = as_list(curves)
     ax = new_axis(ax)
     for i, curve in enumerate(curves):
         line = style(i, len(curves))
         line["linestyle"] = "-" if curve.structure_preserving else "--"
         ax.loglog(getattr(curve, cost), curve.error, markersize=4, linewidth=1.2, label=curve.label, **line)
-    return _finish(ax, "wall time [s] (median)" if cost == "wall" else "field evaluations",
-                   error, "work-precision (solid: exact H and monotone S)",
-                   legend and "lower left", len(curves))
+    return _finish(
+        ax,
+        "wall time [s] (median)" if cost == "wall" else "field evaluations",
+        error,
+        "work-precision (solid: exact H and monotone S)",
+        legend and "lower left",
+        len(curves),
+    )
 
 
 def _finish(ax, xlabel, ylabel, title, legend_at, lines, title_color="black"):
@@ -153,4 +209,3 @@ def _finish(ax, xlabel, ylabel, title, legend_at, lines, title_color="black"):
     if legend_at:
         ax.legend(loc=legend_at, fontsize=7, ncol=1 if lines <= 10 else 2)
     return ax
-

@@ -40,10 +40,17 @@ def _failed(solutions):
     return [sol for sol in solutions if not sol.success]
 
 
-def level_surface(system: MetriplecticSystem, solutions: Solution | Sequence[Solution], ax: Axes | None = None, *,
-                  labels: Sequence[str] | None = None, center: npt.ArrayLike | None = None,
-                  view: tuple[float, float] = (30.0, -60.0), sections: Sequence[Sequence[float]] = (),
-                  legend: bool = True) -> Axes:
+def level_surface(
+    system: MetriplecticSystem,
+    solutions: Solution | Sequence[Solution],
+    ax: Axes | None = None,
+    *,
+    labels: Sequence[str] | None = None,
+    center: npt.ArrayLike | None = None,
+    view: tuple[float, float] = (30.0, -60.0),
+    sections: Sequence[Sequence[float]] = (),
+    legend: bool = True,
+) -> Axes:
     """Trajectories on the level surfaces ``H = H0`` (the distinct initial energies, at most 3) in 3-D.
 
     Parameters
@@ -82,26 +89,55 @@ def level_surface(system: MetriplecticSystem, solutions: Solution | Sequence[Sol
                 continue
         else:
             box = _fitted_box(np.vstack([_finite(surface), box[0], box[1]]), margin=0.03)
-            ax.plot_surface(*_clip(surface, box), color="steelblue", alpha=0.12, linewidth=0.2,
-                            edgecolor="lightsteelblue", shade=False, rstride=2, cstride=2)
+            ax.plot_surface(
+                *_clip(surface, box),
+                color="steelblue",
+                alpha=0.12,
+                linewidth=0.2,
+                edgecolor="lightsteelblue",
+                shade=False,
+                rstride=2,
+                cstride=2,
+            )
         for plane in sections:
             for curve in _level_set.section(system, H0, center, plane):
-                ax.plot(*_clip_points(curve, box).T, color="darkorange", linewidth=1.4, linestyle="--",
-                        label="plane section" if plane == sections[0] else None)
+                ax.plot(
+                    *_clip_points(curve, box).T,
+                    color="darkorange",
+                    linewidth=1.4,
+                    linestyle="--",
+                    label="plane section" if plane == sections[0] else None,
+                )
         behind += _draw_equilibria(ax, system, H0, center, eye, box)
     if behind:
-        ax.plot([], [], " ", label=f"({behind} {'equilibrium' if behind == 1 else 'equilibria'} hidden behind the surface)")
+        ax.plot(
+            [], [], " ", label=f"({behind} {'equilibrium' if behind == 1 else 'equilibria'} hidden behind the surface)"
+        )
     names = line_labels(solutions, labels)
     for i, (sol, name) in enumerate(zip(solutions, names)):
         line = style(i)
-        ax.plot(sol.x[:, 0], sol.x[:, 1], sol.x[:, 2], color=line["color"], linestyle=line["linestyle"],
-                linewidth=1.1, label=name)
+        ax.plot(
+            sol.x[:, 0],
+            sol.x[:, 1],
+            sol.x[:, 2],
+            color=line["color"],
+            linestyle=line["linestyle"],
+            linewidth=1.1,
+            label=name,
+        )
         ax.scatter(*sol.x[0], color=line["color"], marker="^", s=22, depthshade=False)
     failed = _failed(solutions)
     if failed:
         ends = np.array([sol.x_final for sol in failed])
-        ax.scatter(*ends.T, color="red", marker="X", s=70, depthshade=False, zorder=6,
-                   label=f"failed: last state reached ({len(failed)})")
+        ax.scatter(
+            *ends.T,
+            color="red",
+            marker="X",
+            s=70,
+            depthshade=False,
+            zorder=6,
+            label=f"failed: last state reached ({len(failed)})",
+        )
     ax.scatter([], [], color="grey", marker="^", s=22, label="initial states")
     ax.set_xlabel("x")
     ax.set_ylabel("y")
@@ -221,15 +257,21 @@ def _draw_equilibria(ax, system, H0, center, eye, box):
         if ordered is not None:
             label = f"curve of {kind} equilibria"
             visible = np.where((((ordered - center) @ eye) >= 0.0)[:, None], ordered, np.nan)
-            ax.plot(*visible.T, color=_CURVE_COLOR[kind], linewidth=2.6, zorder=5,
-                    label=None if label in drawn else label)
+            ax.plot(
+                *visible.T, color=_CURVE_COLOR[kind], linewidth=2.6, zorder=5, label=None if label in drawn else label
+            )
             continue
         front = (points - center) @ eye >= 0.0
         behind += int(np.count_nonzero(~front))
         label = f"{kind} equilibrium"
         if np.any(front):
-            ax.scatter(*points[front].T, depthshade=False, zorder=5, label=None if label in drawn else label,
-                       **_EQUILIBRIUM_STYLE[kind])
+            ax.scatter(
+                *points[front].T,
+                depthshade=False,
+                zorder=5,
+                label=None if label in drawn else label,
+                **_EQUILIBRIUM_STYLE[kind],
+            )
     return behind
 
 
@@ -261,4 +303,3 @@ def _set_limits(ax, box):
     ax.set_xlim(mid[0] - half, mid[0] + half)
     ax.set_ylim(mid[1] - half, mid[1] + half)
     ax.set_zlim(mid[2] - half, mid[2] + half)
-

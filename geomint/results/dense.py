@@ -52,8 +52,11 @@ class Hermite:
         h = (t1 - t0)[:, None]
         theta = np.where(h[:, 0] != 0.0, (t - t0) / np.where(t1 != t0, t1 - t0, 1.0), 0.0)[:, None]
         x0, x1, f0, f1 = self.x[i], self.x[i + 1], self.f[i], self.f[i + 1]
-        u = (1 - theta) * x0 + theta * x1 + theta * (theta - 1) * (
-            (1 - 2 * theta) * (x1 - x0) + (theta - 1) * h * f0 + theta * h * f1)
+        u = (
+            (1 - theta) * x0
+            + theta * x1
+            + theta * (theta - 1) * ((1 - 2 * theta) * (x1 - x0) + (theta - 1) * h * f0 + theta * h * f1)
+        )
         return u.T
 
     def step(self, i: int) -> Callable[[float], npt.NDArray[np.float64]]:

@@ -27,9 +27,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .._files import atomic
 from ..integrators import Integrator
 from ..integrators.data import MethodDataError, method_from_data, method_to_data
-from .._files import atomic
 
 if TYPE_CHECKING:
     import os
@@ -50,16 +50,24 @@ def metadata(solution: Solution, system: MetriplecticSystem | None = None) -> di
     from .._version import __version__
 
     method = solution.method
-    return {"format": FORMAT, "format_version": FORMAT_VERSION, "geomint": __version__,
-            **{key: _plain(getattr(solution, key)) for key in _SCALARS},
-            "method": method_to_data(method) if isinstance(method, Integrator) else str(method),
-            "system": None if system is None else system_metadata(system)}
+    return {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "geomint": __version__,
+        **{key: _plain(getattr(solution, key)) for key in _SCALARS},
+        "method": method_to_data(method) if isinstance(method, Integrator) else str(method),
+        "system": None if system is None else system_metadata(system),
+    }
 
 
 def system_metadata(system: MetriplecticSystem) -> dict[str, Any]:
     """``{"name", "params", "eps", "hamiltonian"}`` of a system, with ``"expressions"`` when it has formulas."""
-    data: dict[str, Any] = {"name": system.name, "params": system.params.tolist(), "eps": system.eps,
-            "hamiltonian": system.hamiltonian}
+    data: dict[str, Any] = {
+        "name": system.name,
+        "params": system.params.tolist(),
+        "eps": system.eps,
+        "hamiltonian": system.hamiltonian,
+    }
     if getattr(system, "expressions", None) is not None:
         data["expressions"] = system.expressions
     return data
@@ -112,27 +120,34 @@ def to_xarray(solution: Solution, system: MetriplecticSystem | None = None) -> A
     try:
         import xarray
     except ImportError:
-        raise ImportError("Solution.to_xarray needs xarray, an optional dependency of geomint: "
-                          "pip install geomint[xarray]") from None
+        raise ImportError(
+            "Solution.to_xarray needs xarray, an optional dependency of geomint: pip install geomint[xarray]"
+        ) from None
     meta = metadata(solution, system)
-    attrs = {key: json.dumps(value) if isinstance(value, (dict, list)) or value is None else value
-             for key, value in meta.items()}
+    attrs = {
+        key: json.dumps(value) if isinstance(value, (dict, list)) or value is None else value
+        for key, value in meta.items()
+    }
     attrs["success"] = int(attrs["success"])
     return xarray.Dataset(
         {"x": (("t", "component"), solution.x), "H": ("t", solution.H), "S": ("t", solution.S)},
-        coords={"t": solution.t, "component": ["x", "y", "z"]}, attrs=attrs,
+        coords={"t": solution.t, "component": ["x", "y", "z"]},
+        attrs=attrs,
     )
 
 
 def _metadata(path, data):
     if "metadata" not in data.files:
-        raise ValueError(f"`path` {str(path)!r} is not a geomint solution file (no metadata); write one with "
-                         "Solution.save.")
+        raise ValueError(
+            f"`path` {str(path)!r} is not a geomint solution file (no metadata); write one with Solution.save."
+        )
     meta = json.loads(str(data["metadata"]))
     if meta.get("format") != FORMAT or meta.get("format_version", 0) > FORMAT_VERSION:
-        raise ValueError(f"`path` {str(path)!r} holds format {meta.get('format')!r} version "
-                         f"{meta.get('format_version')!r}; this geomint reads {FORMAT!r} up to version "
-                         f"{FORMAT_VERSION}. Upgrade geomint.")
+        raise ValueError(
+            f"`path` {str(path)!r} holds format {meta.get('format')!r} version "
+            f"{meta.get('format_version')!r}; this geomint reads {FORMAT!r} up to version "
+            f"{FORMAT_VERSION}. Upgrade geomint."
+        )
     return meta
 
 

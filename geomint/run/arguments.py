@@ -40,17 +40,21 @@ def check_states(value: object, name: str, one: bool = True) -> npt.NDArray[np.f
     except (TypeError, ValueError, OverflowError):
         raise TypeError(f"`{name}` must be {kind}; got {value!r}.") from None
     if np.asarray(value).dtype.kind not in "iuf" or any(
-            isinstance(v, (bool, np.bool_)) for v in np.asarray(value, dtype=object).ravel()):
+        isinstance(v, (bool, np.bool_)) for v in np.asarray(value, dtype=object).ravel()
+    ):
         raise TypeError(f"`{name}` must be {kind}; got {value!r}.")  # True is no coordinate, even beside numbers
     if states.ndim != (1 if one else 2) or states.shape[-1] != DIMENSION or states.size == 0:
-        raise ValueError(f"`{name}` must have shape {shape}{'' if one else ' with n >= 1'}; got shape {states.shape}: "
-                         f"states of length {DIMENSION}, as geomint integrates systems in R^{DIMENSION} (got length "
-                         f"{states.shape[-1] if states.ndim else 0}).")
+        raise ValueError(
+            f"`{name}` must have shape {shape}{'' if one else ' with n >= 1'}; got shape {states.shape}: "
+            f"states of length {DIMENSION}, as geomint integrates systems in R^{DIMENSION} (got length "
+            f"{states.shape[-1] if states.ndim else 0})."
+        )
     return states
 
 
-def check_state(x0: npt.ArrayLike, system: MetriplecticSystem | None = None,
-                name: str = "x0") -> npt.NDArray[np.float64]:
+def check_state(
+    x0: npt.ArrayLike, system: MetriplecticSystem | None = None, name: str = "x0"
+) -> npt.NDArray[np.float64]:
     """One finite state (``check_states``), with H and S finite there when ``system`` is given."""
     x = check_states(x0, name)
     if not np.all(np.isfinite(x)):
@@ -79,11 +83,15 @@ def check_step(h: float, t0: float, t_end: float) -> float:
         raise ValueError(f"`h` must be finite and > 0; got {h!r}.")
     steps = abs(t_end - t0) / h
     if not steps <= MAX_STEPS:
-        raise ValueError(f"`h` = {h!r} needs {steps:.3g} steps over t_span = ({t0!r}, {t_end!r}); at most 2**52 are "
-                         "allowed. Use a larger `h` or a shorter span.")
+        raise ValueError(
+            f"`h` = {h!r} needs {steps:.3g} steps over t_span = ({t0!r}, {t_end!r}); at most 2**52 are "
+            "allowed. Use a larger `h` or a shorter span."
+        )
     if t0 + h == t0 or t_end - h == t_end:
-        raise ValueError(f"`h` = {h!r} cannot advance the time {max(abs(t0), abs(t_end))!r} in float64; use a larger `h` "
-                         "or shift t_span towards 0.")
+        raise ValueError(
+            f"`h` = {h!r} cannot advance the time {max(abs(t0), abs(t_end))!r} in float64; use a larger `h` "
+            "or shift t_span towards 0."
+        )
     return h
 
 
@@ -114,7 +122,9 @@ def check_t_eval(t_eval: npt.ArrayLike, t0: float, t_end: float) -> npt.NDArray[
     if np.any(steps <= 0):
         k = int(np.argmax(steps <= 0))
         order = "increasing" if t_end > t0 else "decreasing (t_span runs backward)"
-        raise ValueError(f"`t_eval` must be strictly {order}; got {float(values[k])!r} then {float(values[k + 1])!r} at index {k}.")
+        raise ValueError(
+            f"`t_eval` must be strictly {order}; got {float(values[k])!r} then {float(values[k + 1])!r} at index {k}."
+        )
     check_memory(values.size + 2)
     return values
 
@@ -122,8 +132,10 @@ def check_t_eval(t_eval: npt.ArrayLike, t0: float, t_end: float) -> npt.NDArray[
 def with_args(system: MetriplecticSystem, args: npt.ArrayLike) -> MetriplecticSystem:
     values = _validate.reals("args", args)
     if values.shape != system.params.shape:
-        raise ValueError(f"`args` must have {system.params.size} values, as the system's params; got {values.size}: "
-                         f"{values.tolist()}.")
+        raise ValueError(
+            f"`args` must have {system.params.size} values, as the system's params; got {values.size}: "
+            f"{values.tolist()}."
+        )
     return system.with_effects(params=values)
 
 
@@ -135,10 +147,11 @@ def reversible(step_data: tuple) -> bool:
     return isinstance(step_data, (_layout.RungeKutta4, _layout.DiscreteGradientStep))
 
 
-def check_direction(integrator: Integrator, step_data: tuple, t_span: Any, t0: float,
-                    t_end: float) -> None:
+def check_direction(integrator: Integrator, step_data: tuple, t_span: Any, t0: float, t_end: float) -> None:
     """Refuse a backward ``t_span`` for a method that cannot step backward (``reversible``)."""
     if t_end < t0 and not reversible(step_data):
-        raise ValueError(f"`t_span` = {t_span!r} runs backward, which {integrator!r} cannot: its S safeguard or "
-                         "projection keeps S from rising, as S must backward. Use Gonzalez(), another discrete "
-                         "gradient, RK4() or a Runge-Kutta pair.")
+        raise ValueError(
+            f"`t_span` = {t_span!r} runs backward, which {integrator!r} cannot: its S safeguard or "
+            "projection keeps S from rising, as S must backward. Use Gonzalez(), another discrete "
+            "gradient, RK4() or a Runge-Kutta pair."
+        )

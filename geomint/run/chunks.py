@@ -36,8 +36,14 @@ MAX_CHUNK = 10_000_000
 
 
 def new_output(rows: int) -> _loop.Output:
-    return _loop.Output(np.empty(rows), np.empty((rows, 3)), np.empty(rows), np.empty(rows),
-                          np.zeros(_layout.N_COUNTERS, dtype=np.int64), np.zeros(1))
+    return _loop.Output(
+        np.empty(rows),
+        np.empty((rows, 3)),
+        np.empty(rows),
+        np.empty(rows),
+        np.zeros(_layout.N_COUNTERS, dtype=np.int64),
+        np.zeros(1),
+    )
 
 
 def next_chunk(chunk: int, seconds: float) -> int:
@@ -56,8 +62,10 @@ def interrupts() -> Iterator[list[int]]:
     handles SIGINT itself keeps it); the previous handler is restored on exit.
     """
     flag = []
-    if threading.current_thread() is not threading.main_thread() or \
-            signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+    if (
+        threading.current_thread() is not threading.main_thread()
+        or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
+    ):
         yield flag
         return
     previous = signal.signal(signal.SIGINT, lambda signum, frame: flag.append(signum))
@@ -67,20 +75,20 @@ def interrupts() -> Iterator[list[int]]:
         signal.signal(signal.SIGINT, previous)
 
 
-def save_interrupted(system: MetriplecticSystem, state: npt.NDArray[np.float64], t: float,
-                     out: _loop.Output) -> None:
+def save_interrupted(system: MetriplecticSystem, state: npt.NDArray[np.float64], t: float, out: _loop.Output) -> None:
     """Stop at time ``t``: the state reached is saved as the last row and the run marked interrupted."""
     counters = out.counters
     row = int(counters[_layout.ROWS])
     if out.t[row - 1] != t:
-        x = state[_layout.STATE_X:_layout.STATE_X + 3].copy()
+        x = state[_layout.STATE_X : _layout.STATE_X + 3].copy()
         out.t[row], out.x[row], out.H[row], out.S[row] = t, x, system.H(x), state[_layout.STATE_S]
         counters[_layout.ROWS] = row + 1
     counters[_layout.STATUS] = _layout.INTERRUPTED
 
 
-def new_run_state(step_data: tuple, x0: npt.NDArray[np.float64]
-                  ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+def new_run_state(
+    step_data: tuple, x0: npt.NDArray[np.float64]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """``(work, state)`` of a run from ``x0``: the method's workspace, and the state with no compensation yet, the
     energy anchor to be taken at ``x0`` (NaN) and S unknown."""
     work = np.zeros(getattr(step_data, "slots", 1) * _layout.WORK)
@@ -88,12 +96,19 @@ def new_run_state(step_data: tuple, x0: npt.NDArray[np.float64]
     return work, state
 
 
-def run_chunk(system: MetriplecticSystem, step_data: tuple, control: tuple, state: npt.NDArray[np.float64],
-              work: npt.NDArray[np.float64], clock: npt.NDArray[np.float64], stops: npt.NDArray[np.float64],
-              budget: int, out: _loop.Output) -> float:
+def run_chunk(
+    system: MetriplecticSystem,
+    step_data: tuple,
+    control: tuple,
+    state: npt.NDArray[np.float64],
+    work: npt.NDArray[np.float64],
+    clock: npt.NDArray[np.float64],
+    stops: npt.NDArray[np.float64],
+    budget: int,
+    out: _loop.Output,
+) -> float:
     """At most ``budget`` attempted steps of the compiled loop (arrays updated in place); returns the seconds
     it took."""
     started = time.perf_counter()
-    _loop.run(system.model, system.eps, system.hamiltonian, step_data, control, state, work, clock, stops, budget,
-              out)
+    _loop.run(system.model, system.eps, system.hamiltonian, step_data, control, state, work, clock, stops, budget, out)
     return time.perf_counter() - started

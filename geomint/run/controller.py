@@ -32,23 +32,42 @@ def step_count(t0: float, t_end: float, h: float) -> int:
     return max(1, math.ceil(abs((t_end - t0) / h) * (1.0 - 4.0 * np.finfo(float).eps)))
 
 
-def check_step_or_control(integrator: Integrator, h: float | None, rtol: float | None, atol: float | None,
-                          first_step: float | None, max_step: float | None, t0: float, t_end: float
-                          ) -> tuple[float, None] | tuple[None, _control.Control]:
+def check_step_or_control(
+    integrator: Integrator,
+    h: float | None,
+    rtol: float | None,
+    atol: float | None,
+    first_step: float | None,
+    max_step: float | None,
+    t0: float,
+    t_end: float,
+) -> tuple[float, None] | tuple[None, _control.Control]:
     """``(h, None)``: a fixed step, validated (no controller setting may come with it); or ``(None, Control)``
     for adaptive steps (``h`` None).  Shared by ``solve`` and ``solve_ensemble``."""
     if h is None:
         return None, check_control(integrator, rtol, atol, first_step, max_step, t0, t_end)
-    given = [name for name, v in (("rtol", rtol), ("atol", atol), ("first_step", first_step),
-                                  ("max_step", max_step)) if v is not None]
+    given = [
+        name
+        for name, v in (("rtol", rtol), ("atol", atol), ("first_step", first_step), ("max_step", max_step))
+        if v is not None
+    ]
     if given:
-        raise ValueError(f"`h` = {h!r} fixes the step, so `{given[0]}` cannot be given too; pass h=None for "
-                         "adaptive steps with rtol/atol.")
+        raise ValueError(
+            f"`h` = {h!r} fixes the step, so `{given[0]}` cannot be given too; pass h=None for "
+            "adaptive steps with rtol/atol."
+        )
     return check_step(h, t0, t_end), None
 
 
-def check_control(integrator: Integrator, rtol: float | None, atol: float | None, first_step: float | None,
-                  max_step: float | None, t0: float, t_end: float) -> _control.Control:
+def check_control(
+    integrator: Integrator,
+    rtol: float | None,
+    atol: float | None,
+    first_step: float | None,
+    max_step: float | None,
+    t0: float,
+    t_end: float,
+) -> _control.Control:
     """The controller's settings, validated; the first step is chosen by ``control.first_step`` when not given."""
     rtol = RTOL if rtol is None else _validate.real("rtol", rtol)
     if not (math.isfinite(rtol) and rtol >= 100 * np.finfo(float).eps):
@@ -67,13 +86,28 @@ def check_control(integrator: Integrator, rtol: float | None, atol: float | None
         check_step(first_step, t0, t_end)
     estimator, error_order = integrator.error_estimate()
     scale = _control.proportional_tolerance(estimator, integrator.order, rtol)
-    return _control.Control(True, first_step, rtol * scale, atol * scale, max_step, estimator, float(error_order),
-                             float(integrator.order), True)
+    return _control.Control(
+        True,
+        first_step,
+        rtol * scale,
+        atol * scale,
+        max_step,
+        estimator,
+        float(error_order),
+        float(integrator.order),
+        True,
+    )
 
 
-def landing_control(integrator: Integrator, h: float | None, control: _control.Control | None, t0: float,
-                    t_end: float, t_eval: npt.NDArray[np.float64] | None, save_all: bool
-                    ) -> tuple[npt.NDArray[np.float64], _control.Control]:
+def landing_control(
+    integrator: Integrator,
+    h: float | None,
+    control: _control.Control | None,
+    t0: float,
+    t_end: float,
+    t_eval: npt.NDArray[np.float64] | None,
+    save_all: bool,
+) -> tuple[npt.NDArray[np.float64], _control.Control]:
     """``(stops, Control)`` of a run by the loop (``control.Control``): it lands on the times of ``t_eval`` after ``t0``
     and on ``t_end``; fixed steps ``h`` from each stop on (``control`` None), or adaptive ones whose first
     step, when not given, is 0 here: chosen by ``control.first_step`` when the run starts."""
@@ -81,8 +115,17 @@ def landing_control(integrator: Integrator, h: float | None, control: _control.C
     if stops[-1] != t_end:
         stops = np.append(stops, t_end)
     if control is None:  # fixed steps: h was given (check_step_or_control)
-        return stops, _control.Control(False, math.copysign(cast(float, h), t_end - t0), 1.0, 1.0, math.inf,
-                                         _layout.NO_ESTIMATE, 1.0, float(integrator.order), save_all)
+        return stops, _control.Control(
+            False,
+            math.copysign(cast(float, h), t_end - t0),
+            1.0,
+            1.0,
+            math.inf,
+            _layout.NO_ESTIMATE,
+            1.0,
+            float(integrator.order),
+            save_all,
+        )
     first = 0.0 if control.h is None else math.copysign(control.h, t_end - t0)
     return stops, control._replace(h=first, save_all=save_all)
 

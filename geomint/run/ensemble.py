@@ -34,13 +34,13 @@ import numpy as np
 from .. import _user_errors, _validate
 from .._kernels import batch as _batch
 from .._kernels import layout as _layout
+from ..model.system import MetriplecticSystem
 from ..results.solution import AccuracyWarning, Solution
 from .arguments import check_direction, check_memory, check_span, check_states, check_t_eval
 from .chunks import interrupts
 from .controller import RTOL, check_step_or_control, constant_grid, landing_control
 from .solve import choose_method, raised_message, run_message, step_caveat, step_ratios, tolerance_caveat
 from .status import Status
-from ..model.system import MetriplecticSystem
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterable
@@ -130,12 +130,23 @@ class Ensemble:
         """Trajectory ``i`` as a ``geomint.Solution``."""
         n = int(self.rows[i])
         status = Status(int(self.status[i]))
-        return Solution(t=self.t[i, :n].copy(), x=self.x[i, :n].copy(), H=self.H[i, :n].copy(),
-                        S=self.S[i, :n].copy(), success=status == 0, status=status, message=self.messages[i],
-                        failed_step=int(self.failed_step[i]) or None, n_steps=int(self.n_steps[i]),
-                        n_newton=int(self.n_newton[i]), nfev=int(self.nfev[i]), method=self.method,
-                        n_rejected=int(self.n_rejected[i]), caveats=self.caveats[i] if self.caveats else (),
-                        step_ratio=None if self.step_ratio is None else float(self.step_ratio[i]))
+        return Solution(
+            t=self.t[i, :n].copy(),
+            x=self.x[i, :n].copy(),
+            H=self.H[i, :n].copy(),
+            S=self.S[i, :n].copy(),
+            success=status == 0,
+            status=status,
+            message=self.messages[i],
+            failed_step=int(self.failed_step[i]) or None,
+            n_steps=int(self.n_steps[i]),
+            n_newton=int(self.n_newton[i]),
+            nfev=int(self.nfev[i]),
+            method=self.method,
+            n_rejected=int(self.n_rejected[i]),
+            caveats=self.caveats[i] if self.caveats else (),
+            step_ratio=None if self.step_ratio is None else float(self.step_ratio[i]),
+        )
 
     def to_xarray(self, param_names: Iterable[str] | None = None) -> xarray.Dataset:
         """An ``xarray.Dataset`` (optional dependency: ``pip install geomint[xarray]``).
@@ -152,20 +163,45 @@ class Ensemble:
         names = list(param_names) if param_names is not None else [f"p{k}" for k in range(self.params.shape[1])]
         if len(names) != self.params.shape[1]:
             raise ValueError(f"`param_names` must name {self.params.shape[1]} parameters; got {names!r}.")
-        coords = {"component": ["x", "y", "z"], "eps": ("trajectory", self.eps), "status": ("trajectory", self.status),
-                  "rows": ("trajectory", self.rows), "t": (("trajectory", "time"), self.t)}
+        coords = {
+            "component": ["x", "y", "z"],
+            "eps": ("trajectory", self.eps),
+            "status": ("trajectory", self.status),
+            "rows": ("trajectory", self.rows),
+            "t": (("trajectory", "time"), self.t),
+        }
         coords.update({name: ("trajectory", self.params[:, k]) for k, name in enumerate(names)})
-        return xr.Dataset({"x": (("trajectory", "time", "component"), self.x), "H": (("trajectory", "time"), self.H),
-                           "S": (("trajectory", "time"), self.S)}, coords=coords)
+        return xr.Dataset(
+            {
+                "x": (("trajectory", "time", "component"), self.x),
+                "H": (("trajectory", "time"), self.H),
+                "S": (("trajectory", "time"), self.S),
+            },
+            coords=coords,
+        )
 
 
-def solve_ensemble(system: MetriplecticSystem, X0: npt.ArrayLike, t_span: tuple[float, float], h: float | None = None,
-                   method: Integrator | str | None = None, *, rtol: float | None = None, atol: float | None = None,
-                   first_step: float | None = None, max_step: float | None = None,
-                   t_eval: npt.ArrayLike | None = None, params: npt.ArrayLike | None = None,
-                   eps: npt.ArrayLike | None = None, save_every: int | None = 1,
-                   progress: Callable[[int], object] | None = None, backend: str = "local", client: Any = None,
-                   chunk: int = CHUNK, threads: int | None = None) -> Ensemble:
+def solve_ensemble(
+    system: MetriplecticSystem,
+    X0: npt.ArrayLike,
+    t_span: tuple[float, float],
+    h: float | None = None,
+    method: Integrator | str | None = None,
+    *,
+    rtol: float | None = None,
+    atol: float | None = None,
+    first_step: float | None = None,
+    max_step: float | None = None,
+    t_eval: npt.ArrayLike | None = None,
+    params: npt.ArrayLike | None = None,
+    eps: npt.ArrayLike | None = None,
+    save_every: int | None = 1,
+    progress: Callable[[int], object] | None = None,
+    backend: str = "local",
+    client: Any = None,
+    chunk: int = CHUNK,
+    threads: int | None = None,
+) -> Ensemble:
     """Integrate every start ``X0[i]`` in one compiled batch kernel over all cores.
 
     Parameters
@@ -224,16 +260,21 @@ def solve_ensemble(system: MetriplecticSystem, X0: npt.ArrayLike, t_span: tuple[
             raise ValueError(f"`{name}` must be an integer >= 1; got {value!r}.")
     threads_given = threads is not None
     # numba.config's settings are set at import, from the environment: pyright sees no such attribute
-    threads = (numba.config.NUMBA_NUM_THREADS  # pyright: ignore[reportPrivateImportUsage, reportAttributeAccessIssue]
-               if threads is None else int(threads))
+    threads = (
+        numba.config.NUMBA_NUM_THREADS  # pyright: ignore[reportPrivateImportUsage, reportAttributeAccessIssue]
+        if threads is None
+        else int(threads)
+    )
     X0 = check_states(X0, "X0", one=False)
     n = len(X0)
     params = _per_trajectory_params(system, params, n)
     eps = _per_trajectory_eps(system, eps, n)
     integrator = choose_method(method, h, rtol, t_span)
     if not integrator.whole_field and np.any(eps != 0.0):
-        raise ValueError(f"`method` {integrator!r} integrates the {integrator.flows[0]} flow only, so alone it needs "
-                         "eps = 0 for every trajectory.")
+        raise ValueError(
+            f"`method` {integrator!r} integrates the {integrator.flows[0]} flow only, so alone it needs "
+            "eps = 0 for every trajectory."
+        )
     integrator.check_system(system)
     t0, t_end = check_span(t_span)
     step_data = integrator.lower(system)
@@ -246,15 +287,34 @@ def solve_ensemble(system: MetriplecticSystem, X0: npt.ArrayLike, t_span: tuple[
         plan = _FixedPlan(t0, t_end, grid)
     else:
         if save_every is not None and (isinstance(save_every, (bool, np.bool_)) or save_every != 1):
-            raise ValueError("`save_every` must be 1 or None with adaptive steps (h=None) or t_eval (the rows are "
-                             f"the times of t_eval, or the start and the end); got {save_every!r}.")
+            raise ValueError(
+                "`save_every` must be 1 or None with adaptive steps (h=None) or t_eval (the rows are "
+                f"the times of t_eval, or the start and the end); got {save_every!r}."
+            )
         plan = _MarchPlan(t0, *landing_control(integrator, h, control, t0, t_end, t_eval, False), t_eval)
     check_memory(plan.rows * n)
     if backend == "dask":  # each chunk flagged on its worker (``_dask_task`` runs solve_ensemble)
-        ensemble = _on_dask(client, system, X0, t_span, integrator, params, eps, progress, chunk,
-                            threads if threads_given else 1,
-                            dict(h=h, rtol=rtol, atol=atol, first_step=first_step, max_step=max_step, t_eval=t_eval,
-                                 save_every=save_every))
+        ensemble = _on_dask(
+            client,
+            system,
+            X0,
+            t_span,
+            integrator,
+            params,
+            eps,
+            progress,
+            chunk,
+            threads if threads_given else 1,
+            dict(
+                h=h,
+                rtol=rtol,
+                atol=atol,
+                first_step=first_step,
+                max_step=max_step,
+                t_eval=t_eval,
+                save_every=save_every,
+            ),
+        )
         _warn([c[0] if c else None for c in ensemble.caveats], stacklevel=3)
         return ensemble
     ensemble = _run_local(system, X0, integrator, step_data, params, eps, plan, progress, chunk, threads)
@@ -273,8 +333,9 @@ def _step_ratios(system, integrator, h, X0, ends, params, eps):
     for k, key in enumerate(keys[:RATIO_GROUPS]):
         members = np.flatnonzero(group.ravel() == k)
         try:
-            own = system.with_effects(eps=float(key[0]),
-                                      params=None if np.array_equal(key[1:], system.params) else key[1:])
+            own = system.with_effects(
+                eps=float(key[0]), params=None if np.array_equal(key[1:], system.params) else key[1:]
+            )
         except ValueError:  # params refused here were refused per trajectory by the run: their ratio stays NaN
             continue
         ratio[members], rate[members] = step_ratios(own, integrator, h, X0[members], ends[members])
@@ -286,8 +347,11 @@ def _warn(caveats, stacklevel=4):
     points at the caller of ``solve_ensemble``."""
     flagged = [i for i, caveat in enumerate(caveats) if caveat]
     if flagged:
-        warnings.warn(f"{len(flagged)} of {len(caveats)} trajectories (the first: {flagged[0]}): {caveats[flagged[0]]}",
-                      AccuracyWarning, stacklevel=stacklevel)
+        warnings.warn(
+            f"{len(flagged)} of {len(caveats)} trajectories (the first: {flagged[0]}): {caveats[flagged[0]]}",
+            AccuracyWarning,
+            stacklevel=stacklevel,
+        )
 
 
 def _flagged(ensemble, caveats, **fields):
@@ -297,9 +361,17 @@ def _flagged(ensemble, caveats, **fields):
     return replace(ensemble, messages=messages, caveats=tuple((c,) if c else () for c in caveats), **fields)
 
 
-def sweep(system: MetriplecticSystem, X0: npt.ArrayLike, t_span: tuple[float, float], h: float | None = None,
-          method: Integrator | str | None = None, *, eps: npt.ArrayLike | None = None,
-          params: Iterable[npt.ArrayLike] | None = None, **options: Any) -> Ensemble:
+def sweep(
+    system: MetriplecticSystem,
+    X0: npt.ArrayLike,
+    t_span: tuple[float, float],
+    h: float | None = None,
+    method: Integrator | str | None = None,
+    *,
+    eps: npt.ArrayLike | None = None,
+    params: Iterable[npt.ArrayLike] | None = None,
+    **options: Any,
+) -> Ensemble:
     """Every start of ``X0`` for every combination of ``eps`` (a sequence) and ``params`` (a sequence of parameter
     vectors): one ``solve_ensemble`` over the grid, trajectories ordered eps-major, then params, then starts.
 
@@ -310,8 +382,16 @@ def sweep(system: MetriplecticSystem, X0: npt.ArrayLike, t_span: tuple[float, fl
     eps_values = [system.eps] if eps is None else list(_validate.reals("eps", eps))
     param_sets = [system.params] if params is None else [np.asarray(p, dtype=np.float64) for p in params]
     grid = [(e, p, x) for e in eps_values for p in param_sets for x in X0]
-    return solve_ensemble(system, np.array([x for _, _, x in grid]), t_span, h, method,
-                          eps=np.array([e for e, _, _ in grid]), params=np.array([p for _, p, _ in grid]), **options)
+    return solve_ensemble(
+        system,
+        np.array([x for _, _, x in grid]),
+        t_span,
+        h,
+        method,
+        eps=np.array([e for e, _, _ in grid]),
+        params=np.array([p for _, p, _ in grid]),
+        **options,
+    )
 
 
 # -- input ---------------------------------------------------------------------------------------
@@ -324,11 +404,11 @@ def _per_trajectory_params(system, params, n):
     except (TypeError, ValueError, OverflowError):
         raise TypeError(f"`params` must be an array of shape (n, {p.size}); got {params!r}.") from None
     if array.shape != (n, p.size):
-        raise ValueError(f"`params` must have shape (n, p) = ({n}, {p.size}), a row per start; got shape "
-                         f"{array.shape}.")
+        raise ValueError(
+            f"`params` must have shape (n, p) = ({n}, {p.size}), a row per start; got shape {array.shape}."
+        )
     if not np.all(np.isfinite(array)):
-        raise ValueError(f"`params` must be finite; row {int(np.argmax(~np.all(np.isfinite(array), axis=1)))} "
-                         "is not.")
+        raise ValueError(f"`params` must be finite; row {int(np.argmax(~np.all(np.isfinite(array), axis=1)))} is not.")
     return np.ascontiguousarray(array)
 
 
@@ -356,8 +436,11 @@ def _refused(system, X0, params):
         except Exception as error:  # noqa: BLE001 - the user's function: its exception is the reason
             reasons.append(f"H or S raised {error!r} at x0 = {x.tolist()}; not run.")
             continue
-        reasons.append(None if np.isfinite(H0) and np.isfinite(S0) else
-                       f"H and S must be finite at x0; at x0 = {x.tolist()} H = {H0!r}, S = {S0!r}; not run.")
+        reasons.append(
+            None
+            if np.isfinite(H0) and np.isfinite(S0)
+            else f"H and S must be finite at x0; at x0 = {x.tolist()} H = {H0!r}, S = {S0!r}; not run."
+        )
     return reasons
 
 
@@ -383,8 +466,28 @@ class _FixedPlan:
 
     def run(self, system, step_data, views, first, stride):
         p, o, e, st, wo, tt, xx, HH, SS, co, re, cl = views
-        _batch.run_batch(system.model, p, o, e, system.hamiltonian, step_data, self.grid, st, wo, cl,
-                         np.array([self.t_end]), self.grid.n_steps, tt, xx, HH, SS, co, re, first, stride)
+        _batch.run_batch(
+            system.model,
+            p,
+            o,
+            e,
+            system.hamiltonian,
+            step_data,
+            self.grid,
+            st,
+            wo,
+            cl,
+            np.array([self.t_end]),
+            self.grid.n_steps,
+            tt,
+            xx,
+            HH,
+            SS,
+            co,
+            re,
+            first,
+            stride,
+        )
 
     def unfinished(self, arrays, part):
         return False
@@ -424,13 +527,34 @@ class _MarchPlan:
 
     def run(self, system, step_data, views, first, stride):
         p, o, e, st, wo, tt, xx, HH, SS, co, re, cl = views
-        _batch.run_batch(system.model, p, o, e, system.hamiltonian, step_data, self.control, st, wo, cl,
-                         self.stops, self.BUDGET, tt, xx, HH, SS, co, re, first, stride)
+        _batch.run_batch(
+            system.model,
+            p,
+            o,
+            e,
+            system.hamiltonian,
+            step_data,
+            self.control,
+            st,
+            wo,
+            cl,
+            self.stops,
+            self.BUDGET,
+            tt,
+            xx,
+            HH,
+            SS,
+            co,
+            re,
+            first,
+            stride,
+        )
 
     def unfinished(self, arrays, part):
         counters, clocks = arrays[_COUNTERS], arrays[_CLOCKS]
-        return bool(np.any((counters[part, _layout.STATUS] == _layout.OK)
-                           & (clocks[part, _layout.C_STOP] < len(self.stops))))
+        return bool(
+            np.any((counters[part, _layout.STATUS] == _layout.OK) & (clocks[part, _layout.C_STOP] < len(self.stops)))
+        )
 
     def where_failed(self, i, arrays):
         t, counters, clocks = arrays[_T], arrays[_COUNTERS], arrays[_CLOCKS]
@@ -467,13 +591,13 @@ def _run_local(system, X0, integrator, step_data, params, eps, plan, progress, c
     arrays = (states, works, t, x, H, S, counters, residuals) + plan.start(n)
     raised_by = {}
     threads = max(1, min(threads, chunk))
-    with _user_errors.catching_everywhere() as raised, interrupts() as interrupted, \
-            ThreadPoolExecutor(threads) as pool:
+    with _user_errors.catching_everywhere() as raised, interrupts() as interrupted, ThreadPoolExecutor(threads) as pool:
         for begin in range(0, n, chunk):
             part = slice(begin, min(n, begin + chunk))
             if interrupted:
-                counters[part, _layout.STATUS] = np.where(counters[part, _layout.STATUS] == 0, Status.NOT_RUN,
-                                                          counters[part, _layout.STATUS])
+                counters[part, _layout.STATUS] = np.where(
+                    counters[part, _layout.STATUS] == 0, Status.NOT_RUN, counters[part, _layout.STATUS]
+                )
                 continue
             snapshot = [a[part].copy() for a in arrays]
             views = [a[part] for a in (params, origins, eps)] + [a[part] for a in arrays]
@@ -487,7 +611,7 @@ def _run_local(system, X0, integrator, step_data, params, eps, plan, progress, c
                 raised_by.update(_rerun_serially(system, step_data, plan, params, origins, eps, arrays, part))
                 raised.clear()
             elif interrupted and plan.unfinished(arrays, part):
-                going = (counters[part, _layout.STATUS] == _layout.OK)
+                going = counters[part, _layout.STATUS] == _layout.OK
                 counters[part, _layout.STATUS] = np.where(going, _layout.INTERRUPTED, counters[part, _layout.STATUS])
             if progress is not None:
                 progress(part.stop)
@@ -541,18 +665,35 @@ def _collect(system, integrator, X0, params, eps, plan, arrays, reasons, raised_
         if status[i] == _layout.USER_RAISED:
             own = system if np.array_equal(params[i], system.params) else None
             h = plan.where_failed(i, arrays)[1]
-            what = (raised_message(own, x[i, row_count[i] - 1], h, [raised_by.get(i)]) if own is not None else
-                    f"a user function raised {raised_by.get(i)!r}")
+            what = (
+                raised_message(own, x[i, row_count[i] - 1], h, [raised_by.get(i)])
+                if own is not None
+                else f"a user function raised {raised_by.get(i)!r}"
+            )
         failed = int(counters[i, _layout.FAILED_STEP]) if status[i] < 0 else None
         t_from, h = plan.where_failed(i, arrays)
-        messages.append(run_message(int(status[i]), failed, t[i, :row_count[i]], t_from, h, counters[i],
-                                 residuals[i, 0], integrator, what))
+        messages.append(
+            run_message(
+                int(status[i]), failed, t[i, : row_count[i]], t_from, h, counters[i], residuals[i, 0], integrator, what
+            )
+        )
     return Ensemble(
-        t=t[:, :used], x=x[:, :used], H=H[:, :used], S=S[:, :used], rows=row_count, status=status,
-        failed_step=np.where(status < 0, counters[:, _layout.FAILED_STEP], 0), messages=tuple(messages),
-        n_steps=counters[:, _layout.STEPS].copy(), n_newton=counters[:, _layout.NEWTON_ITERATIONS].copy(),
-        nfev=counters[:, _layout.FIELD_EVALUATIONS].copy(), n_rejected=counters[:, _layout.REJECTED].copy(), eps=eps,
-        params=params, method=integrator)
+        t=t[:, :used],
+        x=x[:, :used],
+        H=H[:, :used],
+        S=S[:, :used],
+        rows=row_count,
+        status=status,
+        failed_step=np.where(status < 0, counters[:, _layout.FAILED_STEP], 0),
+        messages=tuple(messages),
+        n_steps=counters[:, _layout.STEPS].copy(),
+        n_newton=counters[:, _layout.NEWTON_ITERATIONS].copy(),
+        nfev=counters[:, _layout.FIELD_EVALUATIONS].copy(),
+        n_rejected=counters[:, _layout.REJECTED].copy(),
+        eps=eps,
+        params=params,
+        method=integrator,
+    )
 
 
 # -- the Dask backend --------------------------------------------------------------------------------
@@ -563,8 +704,10 @@ def _on_dask(client, system, X0, t_span, integrator, params, eps, progress, chun
         raise ImportError("backend='dask' needs dask.distributed: pip install geomint[dask]") from None
     client = default_client() if client is None else client
     parts = [slice(b, min(len(X0), b + chunk)) for b in range(0, len(X0), chunk)]
-    futures = [client.submit(_dask_task, system, X0[p], t_span, integrator, params[p], eps[p], threads, options,
-                             pure=False) for p in parts]
+    futures = [
+        client.submit(_dask_task, system, X0[p], t_span, integrator, params[p], eps[p], threads, options, pure=False)
+        for p in parts
+    ]
     size = {future.key: p.stop - p.start for future, p in zip(futures, parts)}
     done = 0
     for future in as_completed(futures):
@@ -576,8 +719,9 @@ def _on_dask(client, system, X0, t_span, integrator, params, eps, progress, chun
 
 def _dask_task(system, X0, t_span, integrator, params, eps, threads, options):
     """One chunk on a Dask worker: the local batch kernel (``options``: the step and output keywords)."""
-    return solve_ensemble(system, X0, t_span, method=integrator, params=params, eps=eps, chunk=len(X0),
-                          threads=threads, **options)
+    return solve_ensemble(
+        system, X0, t_span, method=integrator, params=params, eps=eps, chunk=len(X0), threads=threads, **options
+    )
 
 
 def _concatenate(parts, integrator):
@@ -585,15 +729,23 @@ def _concatenate(parts, integrator):
 
     def pad(array):
         extra = used - array.shape[1]
-        return np.concatenate([array, np.full((array.shape[0], extra) + array.shape[2:], np.nan)], axis=1) \
-            if extra else array
+        return (
+            np.concatenate([array, np.full((array.shape[0], extra) + array.shape[2:], np.nan)], axis=1)
+            if extra
+            else array
+        )
 
     return Ensemble(
-        t=np.concatenate([pad(p.t) for p in parts]), x=np.concatenate([pad(p.x) for p in parts]),
-        H=np.concatenate([pad(p.H) for p in parts]), S=np.concatenate([pad(p.S) for p in parts]),
-        **{name: np.concatenate([getattr(p, name) for p in parts])
-           for name in ("rows", "status", "failed_step", "n_steps", "n_newton", "nfev", "n_rejected", "eps",
-                        "params")},
-        messages=tuple(m for p in parts for m in p.messages), method=integrator,
+        t=np.concatenate([pad(p.t) for p in parts]),
+        x=np.concatenate([pad(p.x) for p in parts]),
+        H=np.concatenate([pad(p.H) for p in parts]),
+        S=np.concatenate([pad(p.S) for p in parts]),
+        **{
+            name: np.concatenate([getattr(p, name) for p in parts])
+            for name in ("rows", "status", "failed_step", "n_steps", "n_newton", "nfev", "n_rejected", "eps", "params")
+        },
+        messages=tuple(m for p in parts for m in p.messages),
+        method=integrator,
         caveats=tuple(c for p in parts for c in p.caveats),
-        step_ratio=None if parts[0].step_ratio is None else np.concatenate([p.step_ratio for p in parts]))
+        step_ratio=None if parts[0].step_ratio is None else np.concatenate([p.step_ratio for p in parts]),
+    )

@@ -15,7 +15,8 @@ from ``x_n`` landing on ``s``: the zero of the computed solution, as accurate
 as the method.  The state recorded at the event, ``x_events``, is that step's
 state, so it keeps H and S exactly as every step does.  (Where such a step
 fails, or does not show the sign change the accepted step showed, the cubic
-Hermite interpolant of the step, ``geomint.dense``, is used instead.)  A terminal event ends the run there, with ``status = 1``.
+Hermite interpolant of the step, ``geomint.dense``, is used instead.)  A terminal event ends the run there, with
+``status = 1``.
 
 Built-ins: ``relaxed`` (the field has become small: the state has relaxed
 onto an equilibrium of H = H0) and ``crossing`` (a function of the state
@@ -66,8 +67,13 @@ def relaxed(system: MetriplecticSystem, tol: float, *, terminal: bool | int = Tr
     return event
 
 
-def crossing(function: Callable[[npt.NDArray[np.float64]], float], value: float = 0.0, *, direction: float = 0.0,
-             terminal: bool | int = False) -> Event:
+def crossing(
+    function: Callable[[npt.NDArray[np.float64]], float],
+    value: float = 0.0,
+    *,
+    direction: float = 0.0,
+    terminal: bool | int = False,
+) -> Event:
     """The event ``function(x) - value``: a function of the state (``system.S``, ``lambda x: x[2]`` ...)
     crossing ``value``; ``direction`` and ``terminal`` as above."""
     if not callable(function):
@@ -120,8 +126,11 @@ class Events:
             else:
                 raise ValueError(f"`events[{k}].terminal` must be True, False or an integer >= 1; got {terminal!r}.")
             direction = getattr(g, "direction", 0.0)
-            if isinstance(direction, (bool, np.bool_)) or not isinstance(direction, numbers.Real) \
-                    or not math.isfinite(direction):
+            if (
+                isinstance(direction, (bool, np.bool_))
+                or not isinstance(direction, numbers.Real)
+                or not math.isfinite(direction)
+            ):
                 raise ValueError(f"`events[{k}].direction` must be a finite real number; got {direction!r}.")
             self.functions.append(g)
             self.limits.append(limit)
@@ -137,15 +146,19 @@ class Events:
             try:
                 values[k] = g(t, x)
             except Exception as exc:
-                raise UserFunctionError(f"events[{k}] ({_name(g)})", np.asarray(x).tolist(), exc,
-                                        f"(t = {float(t)!r})") from exc
+                raise UserFunctionError(
+                    f"events[{k}] ({_name(g)})", np.asarray(x).tolist(), exc, f"(t = {float(t)!r})"
+                ) from exc
             if not math.isfinite(values[k]):
-                raise ValueError(f"`events[{k}]` ({_name(g)}) returned {float(values[k])!r} at t = {float(t)!r}, "
-                                 f"x = {np.asarray(x).tolist()}; it must return a finite real number.")
+                raise ValueError(
+                    f"`events[{k}]` ({_name(g)}) returned {float(values[k])!r} at t = {float(t)!r}, "
+                    f"x = {np.asarray(x).tolist()}; it must return a finite real number."
+                )
         return values
 
-    def scan(self, system: MetriplecticSystem, step_data: tuple, out: Output, start: int, stop: int,
-             anchor: float) -> tuple[int, float, npt.NDArray[np.float64]] | None:
+    def scan(
+        self, system: MetriplecticSystem, step_data: tuple, out: Output, start: int, stop: int, anchor: float
+    ) -> tuple[int, float, npt.NDArray[np.float64]] | None:
         """Look for zeros over the steps ending at rows ``start + 1 .. stop - 1`` of the run's output ``out``
         (``loop.Output``) of ``step_data`` on ``system``, whose steps keep the energy ``anchor``.
 
@@ -163,6 +176,7 @@ class Events:
 
         def landed(n, s):
             return land(system, step_data, out, n, s, anchor)
+
         if self._last is None:
             self._last = self._values(t[start], x[start])
         for n in range(start, stop - 1):
@@ -172,11 +186,13 @@ class Events:
             down = (old >= 0) & (new <= 0)
             hits = []
             for k, direction in enumerate(self.directions):
-                wanted = (up[k] and direction > 0) or (down[k] and direction < 0) or ((up[k] or down[k]) and
-                                                                                     direction == 0)
+                wanted = (
+                    (up[k] and direction > 0) or (down[k] and direction < 0) or ((up[k] or down[k]) and direction == 0)
+                )
                 if wanted and not (old[k] == 0 and new[k] == 0):
-                    hits.append((self._root(k, t[n], t[n + 1], old[k], new[k], interpolant(n),
-                                            lambda s, n=n: landed(n, s)), k))
+                    hits.append(
+                        (self._root(k, t[n], t[n + 1], old[k], new[k], interpolant(n), lambda s, n=n: landed(n, s)), k)
+                    )
             hits.sort(reverse=bool(t[n + 1] < t[n]))
             for t_event, k in hits:
                 state = landed(n, t_event)
@@ -219,8 +235,10 @@ class Events:
 
     def arrays(self) -> tuple[list[npt.NDArray[np.float64]], list[npt.NDArray[np.float64]]]:
         """``(t_events, x_events)``: per event, an array of times and an ``(n, 3)`` array of states."""
-        return ([np.array(ts, dtype=np.float64) for ts in self.t_events],
-                [np.array(xs, dtype=np.float64).reshape(-1, 3) for xs in self.x_events])
+        return (
+            [np.array(ts, dtype=np.float64) for ts in self.t_events],
+            [np.array(xs, dtype=np.float64).reshape(-1, 3) for xs in self.x_events],
+        )
 
 
 def _name(g):
@@ -232,15 +250,15 @@ def fields(system: MetriplecticSystem, x: npt.ArrayLike) -> npt.NDArray[np.float
     return np.asarray(system.xi(x), dtype=np.float64).reshape(-1, 3)
 
 
-def step_interpolant(system: MetriplecticSystem, out: Output,
-                     n: int) -> Callable[[float], npt.NDArray[np.float64]]:
+def step_interpolant(system: MetriplecticSystem, out: Output, n: int) -> Callable[[float], npt.NDArray[np.float64]]:
     """The cubic Hermite interpolant on the step from row ``n`` to row ``n + 1``."""
-    x = out.x[n:n + 2]
-    return Hermite(out.t[n:n + 2], x, fields(system, x)).step(0)
+    x = out.x[n : n + 2]
+    return Hermite(out.t[n : n + 2], x, fields(system, x)).step(0)
 
 
-def land(system: MetriplecticSystem, step_data: tuple, out: Output, n: int, t: float,
-         anchor: float) -> npt.NDArray[np.float64] | None:
+def land(
+    system: MetriplecticSystem, step_data: tuple, out: Output, n: int, t: float, anchor: float
+) -> npt.NDArray[np.float64] | None:
     """The state one step of the method from row ``n`` of ``out`` lands on at ``t``, the step keeping the energy
     ``anchor`` (None if that step fails): a fixed step landing on the stop ``t``, through the run's loop."""
     if t == out.t[n]:

@@ -34,12 +34,12 @@ if TYPE_CHECKING:
     from .events import Event
 
 
-
-
-
 #: a vector function returning an array of the wrong shape is read as NaNs (``vec3.as_vector``)
-_SHAPE_NOTE = {"grad_H": " or an array of the wrong shape", "grad_S": " or an array of the wrong shape",
-               "J/P": " or an array of the wrong shape"}
+_SHAPE_NOTE = {
+    "grad_H": " or an array of the wrong shape",
+    "grad_S": " or an array of the wrong shape",
+    "J/P": " or an array of the wrong shape",
+}
 
 
 #: adaptive steps with no method named run Gonzalez() at rtol >= LOOSE_RTOL (its error along the trajectory
@@ -61,14 +61,26 @@ STEP_RATIO_LIMIT = 1e3
 FIRST_ROWS = 1024
 
 
-def solve(system: MetriplecticSystem, x0: npt.ArrayLike, t_span: tuple[float, float], h: float | None = None,
-          method: Integrator | str | None = None, save_every: int | None = 1,
-          progress: Callable[[int], object] | None = None,
-          checkpoint: tuple[str | os.PathLike[str], int] | None = None, resume: str | os.PathLike[str] | None = None,
-          *, rtol: float | None = None, atol: float | None = None, first_step: float | None = None,
-          max_step: float | None = None, t_eval: npt.ArrayLike | None = None,
-          events: Event | Iterable[Event] | None = None, dense_output: bool = False,
-          args: npt.ArrayLike | None = None) -> Solution:
+def solve(
+    system: MetriplecticSystem,
+    x0: npt.ArrayLike,
+    t_span: tuple[float, float],
+    h: float | None = None,
+    method: Integrator | str | None = None,
+    save_every: int | None = 1,
+    progress: Callable[[int], object] | None = None,
+    checkpoint: tuple[str | os.PathLike[str], int] | None = None,
+    resume: str | os.PathLike[str] | None = None,
+    *,
+    rtol: float | None = None,
+    atol: float | None = None,
+    first_step: float | None = None,
+    max_step: float | None = None,
+    t_eval: npt.ArrayLike | None = None,
+    events: Event | Iterable[Event] | None = None,
+    dense_output: bool = False,
+    args: npt.ArrayLike | None = None,
+) -> Solution:
     """Integrate ``dx/dt = xi_P + eps xi_g`` with a fixed step ``h``, or with adaptive steps (``h=None``).
 
     Parameters
@@ -196,10 +208,13 @@ def solve(system: MetriplecticSystem, x0: npt.ArrayLike, t_span: tuple[float, fl
     h, control = check_step_or_control(integrator, h, rtol, atol, first_step, max_step, t0, t_end)
     if h is None or t_eval is not None or events is not None or dense_output:
         if checkpoint is not None or resume is not None:
-            raise ValueError("`checkpoint` and `resume` serve fixed-step runs without t_eval, events or dense_output; "
-                             "give `h` and drop those (or drop checkpoint/resume).")
-        sol = _to_stops(system, integrator, step_data, x0, t0, t_end, h, save_every, progress, control,
-                        t_eval, events, dense_output)
+            raise ValueError(
+                "`checkpoint` and `resume` serve fixed-step runs without t_eval, events or dense_output; "
+                "give `h` and drop those (or drop checkpoint/resume)."
+            )
+        sol = _to_stops(
+            system, integrator, step_data, x0, t0, t_end, h, save_every, progress, control, t_eval, events, dense_output
+        )
     else:
         sol = _on_grid(system, integrator, step_data, x0, t0, t_end, h, save_every, progress, checkpoint, resume)
     if h is None:
@@ -239,8 +254,7 @@ def follows_tolerance(integrator: Integrator) -> bool:
     controls the error per step, and the error along the trajectory lags as ``rtol^(p/(p+1))``."""
     estimator, _ = integrator.error_estimate()
     order = integrator.order
-    return estimator == _layout.EMBEDDED or not math.isfinite(order) or (
-        estimator == _layout.DOUBLING and order >= 4)
+    return estimator == _layout.EMBEDDED or not math.isfinite(order) or (estimator == _layout.DOUBLING and order >= 4)
 
 
 def tolerance_caveat(integrator: Integrator, rtol: float, backward: bool = False) -> str | None:
@@ -249,13 +263,18 @@ def tolerance_caveat(integrator: Integrator, rtol: float, backward: bool = False
     if rtol >= PER_STEP_RTOL_FLOOR or follows_tolerance(integrator):
         return None
     p = integrator.order
-    advice = ("a backward span allows only methods without an S safeguard: take a fixed step h small enough for "
-              "the accuracy needed" if backward else
-              "leave `method` unset (Projected(DormandPrince853()) is chosen) or use a projected pair")
-    return (f"rtol = {rtol:g} is not expected to be met: {integrator!r} controls its error per step at order "
-            f"{p:g}, so its error along the trajectory lags the tolerance as rtol^({p:g}/{p + 1:g}) (measured "
-            f"beyond 100 x rtol below rtol = {PER_STEP_RTOL_FLOOR:g}; docs/coming-from-scipy.md). For this "
-            f"tolerance with H exact and S monotone, {advice}.")
+    advice = (
+        "a backward span allows only methods without an S safeguard: take a fixed step h small enough for "
+        "the accuracy needed"
+        if backward
+        else "leave `method` unset (Projected(DormandPrince853()) is chosen) or use a projected pair"
+    )
+    return (
+        f"rtol = {rtol:g} is not expected to be met: {integrator!r} controls its error per step at order "
+        f"{p:g}, so its error along the trajectory lags the tolerance as rtol^({p:g}/{p + 1:g}) (measured "
+        f"beyond 100 x rtol below rtol = {PER_STEP_RTOL_FLOOR:g}; docs/coming-from-scipy.md). For this "
+        f"tolerance with H exact and S monotone, {advice}."
+    )
 
 
 def _damped(integrator):
@@ -264,8 +283,7 @@ def _damped(integrator):
     return bool(getattr(integrator, "damped", False)) or any(_damped(m) for m in stages)
 
 
-def local_rate(system: MetriplecticSystem, X: npt.ArrayLike,
-               conservative: bool = False) -> npt.NDArray[np.float64]:
+def local_rate(system: MetriplecticSystem, X: npt.ArrayLike, conservative: bool = False) -> npt.NDArray[np.float64]:
     """The field's local rate at each state of ``X`` (shape (n, 3)): the 2-norm of its Jacobian by central
     differences (6 field evaluations a state, at relative offsets eps^(1/3)); of the conservative part
     ``xi_P`` alone when ``conservative``.  NaN where a user function raises or a value is not finite."""
@@ -290,8 +308,13 @@ def local_rate(system: MetriplecticSystem, X: npt.ArrayLike,
     return rate
 
 
-def step_ratios(system: MetriplecticSystem, integrator: Integrator, h: float, starts: npt.NDArray[np.float64],
-                ends: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+def step_ratios(
+    system: MetriplecticSystem,
+    integrator: Integrator,
+    h: float,
+    starts: npt.NDArray[np.float64],
+    ends: npt.NDArray[np.float64],
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """``(ratio, rate)`` per trajectory: ``|h|`` times the larger local rate (``local_rate``; the
     conservative part's for damped methods) at its start and its last state (NaN where neither is known)."""
     rates = local_rate(system, np.concatenate([starts, ends]), _damped(integrator)).reshape(2, -1)  # one call
@@ -305,12 +328,17 @@ def step_caveat(integrator: Integrator, h: float, ratio: float, rate: float) -> 
     """The sentence flagging a fixed step ``h`` far beyond the dynamics (``ratio > STEP_RATIO_LIMIT``), or None."""
     if not ratio > STEP_RATIO_LIMIT:
         return None
-    part = ("the rate of its conservative part (the damped method damps the dissipative one)" if _damped(integrator)
-            else "the field's local rate")
-    return (f"The step h = {abs(h):g} is {ratio:.3g} times the time scale of the dynamics ({part}, the norm of "
-            f"its Jacobian, is {rate:.3g}; flagged above {STEP_RATIO_LIMIT:g}): every step keeps H and S, but the "
-            f"states do not follow the trajectory. Use h of order 1/{rate:.3g} = {1.0 / rate:.3g} or less, or adaptive "
-            "steps (h=None).")
+    part = (
+        "the rate of its conservative part (the damped method damps the dissipative one)"
+        if _damped(integrator)
+        else "the field's local rate"
+    )
+    return (
+        f"The step h = {abs(h):g} is {ratio:.3g} times the time scale of the dynamics ({part}, the norm of "
+        f"its Jacobian, is {rate:.3g}; flagged above {STEP_RATIO_LIMIT:g}): every step keeps H and S, but the "
+        f"states do not follow the trajectory. Use h of order 1/{rate:.3g} = {1.0 / rate:.3g} or less, or adaptive "
+        "steps (h=None)."
+    )
 
 
 def _on_grid(system, integrator, step_data, x0, t0, t_end, h, save_every, progress, checkpoint, resume):
@@ -330,8 +358,9 @@ def _on_grid(system, integrator, step_data, x0, t0, t_end, h, save_every, progre
         chunk, checkpointed = FIRST_CHUNK, k_begin
         while k_begin < n_steps and counters[_layout.STATUS] == Status.OK:
             k_end = min(n_steps, k_begin + chunk)
-            chunk = next_chunk(chunk, run_chunk(system, step_data, grid, state, work, clock, stops, k_end - k_begin,
-                                                out))
+            chunk = next_chunk(
+                chunk, run_chunk(system, step_data, grid, state, work, clock, stops, k_end - k_begin, out)
+            )
             k_begin = k_end
             if progress is not None:
                 progress(int(counters[_layout.STEPS]))
@@ -345,12 +374,15 @@ def _on_grid(system, integrator, step_data, x0, t0, t_end, h, save_every, progre
     return _solution(system, integrator, out, raised, t_from=t0 + (failed - 1) * grid.h, h=grid.h)
 
 
-def _to_stops(system, integrator, step_data, x0, t0, t_end, h, save_every, progress, control, t_eval, events,
-              dense_output):
+def _to_stops(
+    system, integrator, step_data, x0, t0, t_end, h, save_every, progress, control, t_eval, events, dense_output
+):
     """Adaptive steps (``control`` given) or fixed steps landing on the stops (a ``control.Control`` controller)."""
     if save_every is not None and (isinstance(save_every, (bool, np.bool_)) or save_every != 1):
-        raise ValueError(f"`save_every` must be 1 or None with adaptive steps (h=None), t_eval, events or dense_output "
-                         f"(they keep every step, or the times of t_eval); got {save_every!r}.")
+        raise ValueError(
+            f"`save_every` must be 1 or None with adaptive steps (h=None), t_eval, events or dense_output "
+            f"(they keep every step, or the times of t_eval); got {save_every!r}."
+        )
     save_all = events is not None or dense_output or (t_eval is None and save_every is not None)
     stops, control = landing_control(integrator, h, control, t0, t_end, t_eval, save_all)
     chosen = control.adaptive and control.h == 0.0
@@ -364,15 +396,15 @@ def _to_stops(system, integrator, step_data, x0, t0, t_end, h, save_every, progr
     model = system.model
     with _user_errors.catching(counters) as raised, interrupts() as interrupted:
         if chosen:  # a user function raising here fails the first step, as in the loop
-            control = control._replace(h=_control.first_step(model, system.eps, system.hamiltonian, x0, t0, t_end,
-                                                             control))
+            control = control._replace(
+                h=_control.first_step(model, system.eps, system.hamiltonian, x0, t0, t_end, control)
+            )
         clock = _layout.new_clock(t0, control.h)
         budget = FIRST_CHUNK
         while clock[_layout.C_STOP] < len(stops) and counters[_layout.STATUS] == Status.OK:
             if counters[_layout.ROWS] == len(out.t):
                 out = _grown(out)
-            budget = next_chunk(budget, run_chunk(system, step_data, control, state, work, clock, stops, budget,
-                                                  out))
+            budget = next_chunk(budget, run_chunk(system, step_data, control, state, work, clock, stops, budget, out))
             if progress is not None:
                 progress(int(counters[_layout.STEPS]))
             rows = int(counters[_layout.ROWS])
@@ -400,8 +432,17 @@ def _to_stops(system, integrator, step_data, x0, t0, t_end, h, save_every, progr
         counters[_layout.ROWS] = int(np.count_nonzero(keep))
     t_events, x_events = events.arrays() if events is not None else (None, None)
     last_good = float(out.t[int(counters[_layout.ROWS]) - 1]) if counters[_layout.STATUS] < 0 else 0.0
-    return _solution(system, integrator, out, raised, t_from=last_good, h=float(clock[_layout.C_H]),
-                     sol=dense, t_events=t_events, x_events=x_events)
+    return _solution(
+        system,
+        integrator,
+        out,
+        raised,
+        t_from=last_good,
+        h=float(clock[_layout.C_H]),
+        sol=dense,
+        t_events=t_events,
+        x_events=x_events,
+    )
 
 
 def _solution(system, integrator, out, raised, t_from, h, **extra):
@@ -411,12 +452,20 @@ def _solution(system, integrator, out, raised, t_from, h, **extra):
     failed = int(counters[_layout.FAILED_STEP]) if status.failed else None
     what = raised_message(system, out.x[n - 1], h, raised) if status == Status.USER_RAISED else None
     return Solution(
-        t=out.t[:n].copy(), x=out.x[:n].copy(), H=out.H[:n].copy(), S=out.S[:n].copy(),
-        success=status.success, status=status,
+        t=out.t[:n].copy(),
+        x=out.x[:n].copy(),
+        H=out.H[:n].copy(),
+        S=out.S[:n].copy(),
+        success=status.success,
+        status=status,
         message=run_message(status, failed, out.t[:n], t_from, h, counters, out.residual[0], integrator, what),
-        failed_step=failed, n_steps=int(counters[_layout.STEPS]),
-        n_newton=int(counters[_layout.NEWTON_ITERATIONS]), nfev=int(counters[_layout.FIELD_EVALUATIONS]),
-        method=integrator, n_rejected=int(counters[_layout.REJECTED]), **extra,
+        failed_step=failed,
+        n_steps=int(counters[_layout.STEPS]),
+        n_newton=int(counters[_layout.NEWTON_ITERATIONS]),
+        nfev=int(counters[_layout.FIELD_EVALUATIONS]),
+        method=integrator,
+        n_rejected=int(counters[_layout.REJECTED]),
+        **extra,
     )
 
 
@@ -438,8 +487,9 @@ def _append(system, out, t, x):
     out.counters[_layout.ROWS] = row + 1
 
 
-def raised_message(system: MetriplecticSystem, x: npt.NDArray[np.float64], h: float,
-                   raised: list[BaseException | None]) -> str:
+def raised_message(
+    system: MetriplecticSystem, x: npt.NDArray[np.float64], h: float, raised: list[BaseException | None]
+) -> str:
     """Which user function raised during the failed step from ``x``: named from the frames numba keeps in the
     exception's traceback, else found by calling the functions again where the step evaluates them (at ``x`` and
     along the explicit Euler move ``x + s h xi(x)``)."""
@@ -447,7 +497,8 @@ def raised_message(system: MetriplecticSystem, x: npt.NDArray[np.float64], h: fl
     f = system.functions
     poisson = "P" if f.poisson_form == "matrix" else "J"
     name = error and _user_errors.raised_by(
-        error, {"H": f.H, "grad_H": f.grad_H, "S": f.S, "grad_S": f.grad_S, poisson: f.poisson})
+        error, {"H": f.H, "grad_H": f.grad_H, "S": f.S, "grad_S": f.grad_S, poisson: f.poisson}
+    )
     if name:
         return f"the user function `{name}` raised {error!r}"
     points = [x]
@@ -460,13 +511,23 @@ def raised_message(system: MetriplecticSystem, x: npt.NDArray[np.float64], h: fl
         found = system.raising_function(point)
         if found is not None:
             return f"the user function `{found[0]}` raised {found[1]!r} (at x = {point.tolist()})"
-    return (f"a user function raised {error!r} at a point of the step (none of H, grad_H, S, grad_S, {poisson} raises "
-            f"at the step's start x = {x.tolist()})")
+    return (
+        f"a user function raised {error!r} at a point of the step (none of H, grad_H, S, grad_S, {poisson} raises "
+        f"at the step's start x = {x.tolist()})"
+    )
 
 
-def run_message(status: int, failed: int | None, t: npt.NDArray[np.float64], t_from: float, h: float,
-                counters: npt.NDArray[np.int64], residual: float, integrator: Integrator,
-                what: str | None = None) -> str:
+def run_message(
+    status: int,
+    failed: int | None,
+    t: npt.NDArray[np.float64],
+    t_from: float,
+    h: float,
+    counters: npt.NDArray[np.int64],
+    residual: float,
+    integrator: Integrator,
+    what: str | None = None,
+) -> str:
     """The ``message`` of a run (or of one trajectory of an ensemble) that ended with ``status``."""
     status = Status(status)
     rows = len(t)
@@ -478,8 +539,10 @@ def run_message(status: int, failed: int | None, t: npt.NDArray[np.float64], t_f
     if status == Status.TERMINATED:
         return f"A termination event occurred at t = {float(t[-1])!r}, after {steps} steps{tried}."
     if status == Status.INTERRUPTED:
-        return (f"Interrupted (SIGINT) after {steps} steps, at t = {t[-1]:.6g}; the {rows} states saved "
-                "so far are kept, the last one is the state reached.")
+        return (
+            f"Interrupted (SIGINT) after {steps} steps, at t = {t[-1]:.6g}; the {rows} states saved "
+            "so far are kept, the last one is the state reached."
+        )
     what = what or status.message
     culprit = _layout.FUNCTION_NAMES[int(counters[_layout.CULPRIT])]
     if status == Status.NON_FINITE and culprit:

@@ -74,8 +74,8 @@ _ADVICE = {
     Status.NON_FINITE: "Check that the system is defined along the trajectory.",
     Status.PROJECTION_FAILED: "A smaller step `h` keeps the projection's move small.",
     Status.USER_RAISED: "Return NaN where a function is undefined (the step then fails as non-finite), or keep the "
-                        "trajectory inside its domain.",
+    "trajectory inside its domain.",
     Status.INVALID_START: "Start where H and S are finite.",
     Status.STEP_TOO_SMALL: "Loosen rtol/atol; if the solution is stiff there, DampedGonzalez() takes steps "
-                           "limited by accuracy only.",
+    "limited by accuracy only.",
 }

@@ -64,7 +64,6 @@ The package, module by module:
 * ``run``     ``run_scene`` and ``SceneResult``; the checkpoint folder.
 """
 
-
 from .checks import MAX_TRAJECTORIES, SceneError
 from .run import ENSEMBLE_STEPS, CheckpointError, SceneResult, run_scene, runs_together, solve_together, versions
 from .schema import FIGURES, OBSERVABLES, Built, Scene, load_scene
@@ -74,7 +73,22 @@ from .toml import bundled_scenes, read_toml, to_toml
 load = load_scene
 
 __all__ = [
-    "ENSEMBLE_STEPS", "FIGURES", "MAX_TRAJECTORIES", "OBSERVABLES", "Built", "CheckpointError", "Scene",
-    "SceneError", "SceneResult", "bundled_scenes", "load", "load_scene", "read_toml", "run_scene", "runs_together",
-    "solve_together", "to_toml", "versions",
+    "ENSEMBLE_STEPS",
+    "FIGURES",
+    "MAX_TRAJECTORIES",
+    "OBSERVABLES",
+    "Built",
+    "CheckpointError",
+    "Scene",
+    "SceneError",
+    "SceneResult",
+    "bundled_scenes",
+    "load",
+    "load_scene",
+    "read_toml",
+    "run_scene",
+    "runs_together",
+    "solve_together",
+    "to_toml",
+    "versions",
 ]

@@ -23,15 +23,22 @@ class SceneError(ValueError):
 # section -> key in the file -> Scene field; "" is the top level
 _LAYOUT = {
     "": {"title": "title", "description": "description"},
-    "system": {"name": "system", "parameters": "parameters", "H": "expressions", "S": "expressions",
-               "J": "expressions", "P": "expressions"},
+    "system": {
+        "name": "system",
+        "parameters": "parameters",
+        "H": "expressions",
+        "S": "expressions",
+        "J": "expressions",
+        "P": "expressions",
+    },
     "effects": {"hamiltonian": "hamiltonian", "eps": "eps", "projection": "projection"},
     "initial": {"points": "points", "level_set": "level_set"},
     "integrator": {"method": "integrator", "h": "h", "duration": "duration"},
     "output": {"record": "record", "every": "every", "figures": "figures", "view": "view", "sections": "sections"},
 }
-_KEY_OF = {name: (f"{section}.{key}" if section else key) for section, keys in _LAYOUT.items()
-           for key, name in keys.items()}
+_KEY_OF = {
+    name: (f"{section}.{key}" if section else key) for section, keys in _LAYOUT.items() for key, name in keys.items()
+}
 _KEY_OF["expressions"] = "system"
 _LEVEL_SET_KEYS = ("H0", "n", "center")
 #: the most initial states a level set may ask for
@@ -65,8 +72,11 @@ class _Checker:
     def label(self, name, value):
         self.string(name, value)
         if not _LABEL.fullmatch(value):
-            self.fail(name, f"must be a label of letters, digits and _ . - (it names output files), starting with a "
-                            f"letter, at most 100 characters; got {value!r}.")
+            self.fail(
+                name,
+                f"must be a label of letters, digits and _ . - (it names output files), starting with a "
+                f"letter, at most 100 characters; got {value!r}.",
+            )
         return value
 
     def formula_parameters(self, value):
@@ -110,8 +120,11 @@ class _Checker:
             try:
                 MathTextParser("path").parse(value)
             except ValueError as exc:
-                self.fail(name, f"its $...$ math does not parse ({str(exc).strip().splitlines()[-1]}); "
-                                "write \\$ for a dollar sign.")
+                self.fail(
+                    name,
+                    f"its $...$ math does not parse ({str(exc).strip().splitlines()[-1]}); "
+                    "write \\$ for a dollar sign.",
+                )
 
     def choice(self, name, value, known, what):
         self.string(name, value)
@@ -146,15 +159,19 @@ class _Checker:
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= MAX_TRAJECTORIES:
             self.fail(f"{key}.n", f"must be an integer in [1, {MAX_TRAJECTORIES}]; got {_describe(n)}.")
         center = value.get("center")
-        return {"H0": self.real(f"{key}.H0", value["H0"]), "n": int(n),
-                "center": None if center is None else list(self.vector(f"{key}.center", center))}
+        return {
+            "H0": self.real(f"{key}.H0", value["H0"]),
+            "n": int(n),
+            "center": None if center is None else list(self.vector(f"{key}.center", center)),
+        }
 
     def integrator(self, value):
         if isinstance(value, str):
             return {"name": value}
         if not isinstance(value, dict) or "name" not in value:
-            self.fail("integrator", f"must be a short name or a table {{ name = ..., option = ... }}; "
-                                    f"got {_describe(value)}.")
+            self.fail(
+                "integrator", f"must be a short name or a table {{ name = ..., option = ... }}; got {_describe(value)}."
+            )
         self.string(f"{_KEY_OF['integrator']}.name", value["name"])
         return dict(value)
 
@@ -181,7 +198,7 @@ class _Checker:
         if value == "final":
             return value
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-            self.fail("every", f"must be an integer >= 1 or \"final\"; got {_describe(value)}.")
+            self.fail("every", f'must be an integer >= 1 or "final"; got {_describe(value)}.')
         return int(value)
 
     def parameters(self, system, value):
@@ -193,8 +210,10 @@ class _Checker:
             if key == "eps":
                 self.fail(f"system.parameters.{key}", "set the dissipation as `effects.eps`.")
             if key not in known:
-                self.fail(f"system.parameters.{key}", f"unknown parameter of {system!r}; it takes {_listing(known)}"
-                                                      f"{_validate.did_you_mean(key, known)}")
+                self.fail(
+                    f"system.parameters.{key}",
+                    f"unknown parameter of {system!r}; it takes {_listing(known)}{_validate.did_you_mean(key, known)}",
+                )
             if isinstance(item, (list, tuple)):
                 out[key] = [self.real(f"system.parameters.{key}", v) for v in item]
             else:
@@ -214,15 +233,22 @@ def _with_options(source, method, options):
     for option in options:
         if cls is not None and option not in options_of(cls):
             known = options_of(cls)
-            takes = f"`[integrator]` takes {_listing(_LAYOUT['integrator'])} and the options of {method!r}: " \
-                    f"{_listing(known) or 'none'}"
-            raise SceneError(source, f"integrator.{option}", _unknown(option, [*_LAYOUT["integrator"], *known],
-                                                                      takes, listed=False))
+            takes = (
+                f"`[integrator]` takes {_listing(_LAYOUT['integrator'])} and the options of {method!r}: "
+                f"{_listing(known) or 'none'}"
+            )
+            raise SceneError(
+                source, f"integrator.{option}", _unknown(option, [*_LAYOUT["integrator"], *known], takes, listed=False)
+            )
     if not isinstance(method, str):
         key = f"integrator.{next(iter(options))}"
-        raise SceneError(source, key, "give the method's options either as keys of `[integrator]` with "
-                                      "`method = \"name\"`, or inside the table `method = { name = ..., ... }`, "
-                                      "not both.")
+        raise SceneError(
+            source,
+            key,
+            "give the method's options either as keys of `[integrator]` with "
+            '`method = "name"`, or inside the table `method = { name = ..., ... }`, '
+            "not both.",
+        )
     return {"name": method, **options}
 
 

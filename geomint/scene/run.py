@@ -20,10 +20,10 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
+from ..integrators.data import method_to_data
 from ..results import io as _io
 from ..results import solution as _solution
 from ..results.solution import AccuracyWarning
-from ..integrators.data import method_to_data
 from ..run.ensemble import solve_ensemble
 from ..run.solve import solve
 from ..run.status import Status
@@ -85,13 +85,26 @@ class SceneResult:
         ulp = float(np.finfo(np.float64).eps)  # machine epsilon; `eps` is the dissipation parameter
         trajectories = []
         for sol, wall in zip(self.solutions, self.wall):
-            trajectories.append({
-                "x0": sol.x[0].tolist(), "x_final": sol.x_final.tolist(), "t_final": sol.t_final,
-                "H0": float(sol.H[0]), "S0": float(sol.S[0]), "S_final": float(sol.S[-1]),
-                "energy_error": sol.energy_error, "energy_error_in_ulp": sol.energy_error / ulp,
-                "S_rises": sol.S_rises, "success": sol.success, "status": sol.status, "message": sol.message,
-                "n_steps": sol.n_steps, "n_newton": sol.n_newton, "nfev": sol.nfev, "wall_s": wall,
-            })
+            trajectories.append(
+                {
+                    "x0": sol.x[0].tolist(),
+                    "x_final": sol.x_final.tolist(),
+                    "t_final": sol.t_final,
+                    "H0": float(sol.H[0]),
+                    "S0": float(sol.S[0]),
+                    "S_final": float(sol.S[-1]),
+                    "energy_error": sol.energy_error,
+                    "energy_error_in_ulp": sol.energy_error / ulp,
+                    "S_rises": sol.S_rises,
+                    "success": sol.success,
+                    "status": sol.status,
+                    "message": sol.message,
+                    "n_steps": sol.n_steps,
+                    "n_newton": sol.n_newton,
+                    "nfev": sol.nfev,
+                    "wall_s": wall,
+                }
+            )
         totals = {
             "partial": self.partial,
             "trajectories": len(trajectories),
@@ -102,17 +115,25 @@ class SceneResult:
             "rows_saved_per_trajectory": int(self.records["rows"].max()),
         }
         return {
-            "scene": self.scene.to_dict(), "system": repr(self.system), "method": method_to_data(self.method),
-            "totals": totals, "trajectories": trajectories, "versions": versions(),
+            "scene": self.scene.to_dict(),
+            "system": repr(self.system),
+            "method": method_to_data(self.method),
+            "totals": totals,
+            "trajectories": trajectories,
+            "versions": versions(),
             "notes": "energy_error = max |H - H0|/|H0| and S_rises (S up by more than 16 ulps) over the saved "
-                     "states; energy_error_in_ulp is it in ulp (units of machine epsilon, 2**-52); "
-                     "scene.effects.eps is the dissipation parameter.",
+            "states; energy_error_in_ulp is it in ulp (units of machine epsilon, 2**-52); "
+            "scene.effects.eps is the dissipation parameter.",
         }
 
 
-def run_scene(scene: Scene, progress: Callable[[int], object] | None = None,
-              checkpoint: tuple[str | os.PathLike[str], int | None] | None = None, resume: bool = False,
-              before_steps: Callable[[MetriplecticSystem, Integrator], object] | None = None) -> SceneResult:
+def run_scene(
+    scene: Scene,
+    progress: Callable[[int], object] | None = None,
+    checkpoint: tuple[str | os.PathLike[str], int | None] | None = None,
+    resume: bool = False,
+    before_steps: Callable[[MetriplecticSystem, Integrator], object] | None = None,
+) -> SceneResult:
     """Run a scene; ``progress(n)`` is called with the number of steps done since its last call, and
     ``before_steps(system, method)`` once the scene and its checkpoint are validated, before the first step.
 
@@ -140,11 +161,15 @@ def run_scene(scene: Scene, progress: Callable[[int], object] | None = None,
         run = _stacked(solutions)
     if not solutions:  # interrupted before a first trajectory ran: nothing to return
         raise KeyboardInterrupt
-    records = {"rows": run.rows, "t": run.t, **{name: np.asarray(OBSERVABLES[name][1](system, run))
-                                                 for name in scene.record}}
+    records = {
+        "rows": run.rows,
+        "t": run.t,
+        **{name: np.asarray(OBSERVABLES[name][1](system, run)) for name in scene.record},
+    }
     partial = len(solutions) < len(states) or solutions[-1].status == Status.INTERRUPTED
-    return SceneResult(scene=scene, system=system, method=method, solutions=solutions, records=records, wall=wall,
-                       partial=partial)
+    return SceneResult(
+        scene=scene, system=system, method=method, solutions=solutions, records=records, wall=wall, partial=partial
+    )
 
 
 class _Run(NamedTuple):
@@ -174,8 +199,16 @@ def _together(scene, system, method, states, progress):
 
     span, save_every = (0.0, scene.duration), _save_every(scene)
     started = time.perf_counter()
-    ensemble = solve_together(system, states, span, scene.h, method=method, save_every=save_every,
-                              progress=None if progress is None else report, chunk=max(1, ENSEMBLE_STEPS // steps))
+    ensemble = solve_together(
+        system,
+        states,
+        span,
+        scene.h,
+        method=method,
+        save_every=save_every,
+        progress=None if progress is None else report,
+        chunk=max(1, ENSEMBLE_STEPS // steps),
+    )
     seconds = time.perf_counter() - started
     for i in np.flatnonzero(ensemble.status == Status.INVALID_START):
         # raises solve's error (and solve takes save_every=None)
@@ -188,8 +221,14 @@ def _together(scene, system, method, states, progress):
     return solutions, [seconds / len(states)] * ran, run
 
 
-def solve_together(system: MetriplecticSystem, X0: npt.ArrayLike, t_span: tuple[float, float], h: float | None,
-                   method: Integrator | str | None, **options: Any) -> Ensemble:
+def solve_together(
+    system: MetriplecticSystem,
+    X0: npt.ArrayLike,
+    t_span: tuple[float, float],
+    h: float | None,
+    method: Integrator | str | None,
+    **options: Any,
+) -> Ensemble:
     """``geomint.solve_ensemble``, each trajectory's caveat said as an ``AccuracyWarning`` of its own, as
     ``geomint.solve`` says it (the ensemble says one for all)."""
     with warnings.catch_warnings():
@@ -226,11 +265,17 @@ def _one_by_one(scene, system, method, states, progress, checkpoint):
         start = time.perf_counter()
         running = None if folder is None else folder / "running.npz"
         try:
-            sol = solve(system, x0, (0.0, scene.duration), scene.h, method=method,
-                        save_every=_save_every(scene),
-                        progress=None if progress is None else report,
-                        checkpoint=None if folder is None else (running, checkpoint[1]),  # pyright: ignore[reportOptionalSubscript, reportArgumentType]
-                        resume=running if running is not None and running.exists() else None)
+            sol = solve(
+                system,
+                x0,
+                (0.0, scene.duration),
+                scene.h,
+                method=method,
+                save_every=_save_every(scene),
+                progress=None if progress is None else report,
+                checkpoint=None if folder is None else (running, checkpoint[1]),  # pyright: ignore[reportOptionalSubscript, reportArgumentType]
+                resume=running if running is not None and running.exists() else None,
+            )
         except KeyboardInterrupt:  # Ctrl-C outside the compiled loop (which answers it with status 2)
             break
         wall.append(time.perf_counter() - start)
@@ -251,7 +296,7 @@ def _stacked(solutions):
         first = getattr(solutions[0], name) if solutions else np.empty(0)
         array = np.full((len(solutions), max(1, int(rows.max(initial=0)))) + first.shape[1:], np.nan)
         for i, sol in enumerate(solutions):
-            array[i, :rows[i]] = getattr(sol, name)
+            array[i, : rows[i]] = getattr(sol, name)
         arrays.append(array)
     return _Run(*arrays, rows)  # pyright: ignore[reportCallIssue]  # the four arrays
 
@@ -275,8 +320,9 @@ def _checkpoint_folder(scene, checkpoint, resume):
             raise CheckpointError(f"no checkpoint in {folder}; run with a checkpoint first.")
         written = json.loads(stamp.read_text())
         if written.get("scene") != json.loads(json.dumps(scene.to_dict())):
-            raise CheckpointError(f"the checkpoint in {folder} was written for another scene; remove it or run "
-                                  "without resuming.")
+            raise CheckpointError(
+                f"the checkpoint in {folder} was written for another scene; remove it or run without resuming."
+            )
         return folder, written["every"] if steps is None else steps
     if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
         raise ValueError(f"`checkpoint` steps must be an integer >= 1; got {steps!r}.")
@@ -296,5 +342,10 @@ def versions() -> dict[str, str]:
 
     from .._version import __version__
 
-    return {"geomint": __version__, "python": platform.python_version(), "numpy": np.__version__,
-            "scipy": scipy.__version__, "numba": numba.__version__}
+    return {
+        "geomint": __version__,
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+        "numba": numba.__version__,
+    }

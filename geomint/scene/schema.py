@@ -158,8 +158,11 @@ class Scene:
             set_(flag, check.boolean(flag, getattr(self, flag)))
         set_("eps", check.real("eps", self.eps, minimum=0.0))
         if not self.hamiltonian and self.eps == 0.0:
-            raise SceneError(self.source, "effects",
-                             "every effect is off (hamiltonian = false, eps = 0): there is nothing to simulate.")
+            raise SceneError(
+                self.source,
+                "effects",
+                "every effect is off (hamiltonian = false, eps = 0): there is nothing to simulate.",
+            )
         if (self.points is None) == (self.level_set is None):
             raise SceneError(self.source, "initial", "give exactly one of `points` and `level_set`.")
         if self.points is not None:
@@ -173,9 +176,12 @@ class Scene:
         set_("every", check.every(self.every))
         set_("figures", check.names("figures", self.figures, FIGURES, "figure"))
         if self.figures and self.every == "final":
-            raise SceneError(self.source, _KEY_OF["figures"],
-                             f"figures {list(self.figures)} draw whole trajectories; set `output.every` to an "
-                             "integer or `output.figures = []`.")
+            raise SceneError(
+                self.source,
+                _KEY_OF["figures"],
+                f"figures {list(self.figures)} draw whole trajectories; set `output.every` to an "
+                "integer or `output.figures = []`.",
+            )
         set_("view", check.numbers("view", self.view, 2, "angles [elevation, azimuth] in degrees"))
         set_("sections", check.planes("sections", self.sections))
         for label in ("title", "description"):
@@ -220,8 +226,11 @@ class Scene:
         if "expressions" in fields:
             fields.setdefault("system", "expressions")
         for required in dataclasses.fields(cls):
-            if required.default is dataclasses.MISSING and required.default_factory is dataclasses.MISSING \
-                    and required.name not in fields:
+            if (
+                required.default is dataclasses.MISSING
+                and required.default_factory is dataclasses.MISSING
+                and required.name not in fields
+            ):
                 raise SceneError(source, _KEY_OF[required.name], "missing; it is required.")
         return cls(**fields, source=source, name=name)
 
@@ -239,8 +248,9 @@ class Scene:
             from ..model import expressions as _expressions  # sympy, slow to import, only for systems as formulas
 
             try:
-                kwargs = _expressions.build(**self.expressions, params=parameters, eps=self.eps,
-                                            name=self.system, prefix="system.")
+                kwargs = _expressions.build(
+                    **self.expressions, params=parameters, eps=self.eps, name=self.system, prefix="system."
+                )
                 system = MetriplecticSystem(**kwargs)
             except ValueError as exc:
                 raise SceneError(self.source, None, str(exc)) from None
@@ -283,8 +293,7 @@ class Scene:
         center = level_set.get("center")
         center = _level_set.energy_minimiser(system) if center is None else np.array(center)
         try:
-            return _level_set.on_rays(system, level_set["H0"], _level_set.fibonacci_directions(level_set["n"]),
-                                      center)
+            return _level_set.on_rays(system, level_set["H0"], _level_set.fibonacci_directions(level_set["n"]), center)
         except ValueError as exc:
             raise SceneError(self.source, "initial.level_set", str(exc)) from None
 
@@ -330,16 +339,24 @@ class Scene:
         """Step counts and the size of the output, computed before anything runs."""
         steps = self.duration / self.h
         if not steps <= MAX_STEPS:
-            raise SceneError(self.source, _KEY_OF["h"], f"duration / h = {steps:.3g} steps per trajectory; at most "
-                                                        "2**52 are allowed: use a larger h or a shorter duration.")
+            raise SceneError(
+                self.source,
+                _KEY_OF["h"],
+                f"duration / h = {steps:.3g} steps per trajectory; at most "
+                "2**52 are allowed: use a larger h or a shorter duration.",
+            )
         rows = 2 if self.every == "final" else self.steps_per_trajectory // self.every + 2  # pyright: ignore[reportOperatorIssue]
         # per saved row: t, x, H, S in the solution, and each recorded observable (at most 3 values) stacked
         nbytes = rows * self.n_trajectories * 8 * (6 + 3 * len(self.record))
         problem = _validate.memory_problem(nbytes)
         if problem:
-            raise SceneError(self.source, _KEY_OF["every"], f"saving {rows} states of {self.n_trajectories} "
-                                                            f"trajectories {problem}; save less often (a larger "
-                                                            "`every`, or \"final\").")
+            raise SceneError(
+                self.source,
+                _KEY_OF["every"],
+                f"saving {rows} states of {self.n_trajectories} "
+                f"trajectories {problem}; save less often (a larger "
+                '`every`, or "final").',
+            )
 
     @property
     def steps_per_trajectory(self) -> int:
@@ -355,8 +372,11 @@ class Scene:
         """The file form: nested sections, ``Scene.from_dict(scene.to_dict()) == scene``."""
         out = {}
         for section, keys in _LAYOUT.items():
-            table = {key: plain(getattr(self, name)) for key, name in keys.items()
-                     if getattr(self, name) is not None and name != "expressions"}
+            table = {
+                key: plain(getattr(self, name))
+                for key, name in keys.items()
+                if getattr(self, name) is not None and name != "expressions"
+            }
             if section:
                 out[section] = table
             else:

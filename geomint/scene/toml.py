@@ -27,22 +27,29 @@ def read_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
     except OSError as exc:
         raise SceneError(str(path), None, f"cannot read the scene file ({exc.strerror}).") from None
     except UnicodeDecodeError as exc:
-        raise SceneError(str(path), None, f"not UTF-8 text (byte {exc.object[exc.start]:#04x} at position "
-                                          f"{exc.start}); save the file as UTF-8.") from None
+        raise SceneError(
+            str(path),
+            None,
+            f"not UTF-8 text (byte {exc.object[exc.start]:#04x} at position {exc.start}); save the file as UTF-8.",
+        ) from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(str(path), None, f"not valid TOML: {exc}.") from None
     except RecursionError:
-        raise SceneError(str(path), None, "tables or arrays nested too deeply to read; a scene needs two "
-                                          "levels.") from None
+        raise SceneError(
+            str(path), None, "tables or arrays nested too deeply to read; a scene needs two levels."
+        ) from None
 
 
 def to_toml(data: dict[str, Any]) -> str:
     """TOML text for a scene's ``to_dict()`` (top-level keys, then one table per section)."""
     top = [f"{key} = {toml_value(value)}" for key, value in data.items() if not isinstance(value, dict)]
-    tables = [f"\n[{key}]\n" + "\n".join(f"{k} = {toml_value(v)}" for k, v in value.items())
-              for key, value in data.items() if isinstance(value, dict)]
+    tables = [
+        f"\n[{key}]\n" + "\n".join(f"{k} = {toml_value(v)}" for k, v in value.items())
+        for key, value in data.items()
+        if isinstance(value, dict)
+    ]
     return "\n".join(top) + "\n" + "\n".join(tables)
 
 

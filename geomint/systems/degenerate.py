@@ -48,6 +48,12 @@ def degenerate_example(number: int = 1, eps: float = 1.0) -> MetriplecticSystem:
     if isinstance(number, bool) or not isinstance(number, numbers.Integral) or number not in _SHIFTS:
         raise ValueError(f"`number` must be 1 or 2 (the paper's Examples 1 and 2); got {number!r}.")
     return MetriplecticSystem(
-        H=_H, grad_H=_grad_H, S=_S, grad_S=_grad_S, J=_J, eps=eps, params=[_SHIFTS[number]],
+        H=_H,
+        grad_H=_grad_H,
+        S=_S,
+        grad_S=_grad_S,
+        J=_J,
+        eps=eps,
+        params=[_SHIFTS[number]],
         name=f"degenerate_example_{number}",
     )

@@ -48,8 +48,10 @@ def _J(x, p):
     return (0.0, 0.0, 1.0)
 
 
-def dissipative_oscillator(coefficients: npt.ArrayLike = (0.0, 0.0, 1.0), eps: float = 1.0,
-                           ) -> MetriplecticSystem:
+def dissipative_oscillator(
+    coefficients: npt.ArrayLike = (0.0, 0.0, 1.0),
+    eps: float = 1.0,
+) -> MetriplecticSystem:
     """The harmonic oscillator in (x, y), lifted to R^3 and perturbed (paper section 2.2).
 
         H = |x|^2 / 2,   J = (0, 0, 1),   S = S(z) = sum_k coefficients[k] z^k,
@@ -65,6 +67,13 @@ def dissipative_oscillator(coefficients: npt.ArrayLike = (0.0, 0.0, 1.0), eps: f
     if coefficients.size == 0:
         raise ValueError(f"`coefficients` must be a non-empty 1-D sequence; got {coefficients.tolist()!r}.")
     return MetriplecticSystem(
-        H=_H, grad_H=_grad_H, S=_S, grad_S=_grad_S, J=_J, eps=eps, params=coefficients,
-        name="dissipative_oscillator", exact_flows={"oscillator_rotation": ()},
+        H=_H,
+        grad_H=_grad_H,
+        S=_S,
+        grad_S=_grad_S,
+        J=_J,
+        eps=eps,
+        params=coefficients,
+        name="dissipative_oscillator",
+        exact_flows={"oscillator_rotation": ()},
     )

@@ -52,8 +52,14 @@ def relaxing_rigid_body(a: float = 0.5, b: float = 1.0, c: float = 1.5, eps: flo
     """
     params = [_check_coefficient(k, v) for k, v in (("a", a), ("b", b), ("c", c))]
     return MetriplecticSystem(
-        H=_quadratic_H, grad_H=_quadratic_grad_H, S=_sphere_S, grad_S=_sphere_grad_S, J=_identity_J,
-        eps=eps, params=params, name="relaxing_rigid_body",
+        H=_quadratic_H,
+        grad_H=_quadratic_grad_H,
+        S=_sphere_S,
+        grad_S=_sphere_grad_S,
+        J=_identity_J,
+        eps=eps,
+        params=params,
+        name="relaxing_rigid_body",
         exact_flows={"rigid_body_flow": params, "rotor_splitting": ()},
     )
 
@@ -82,8 +88,13 @@ def _quartic_grad_S(m, p):
     return (f * m[0], f * m[1], f * m[2])
 
 
-def quartic_rigid_body(a: float = 0.5, b: float = 1.0, c: float = 1.5, k: float = 0.5, eps: float = 1.0,
-                       ) -> MetriplecticSystem:
+def quartic_rigid_body(
+    a: float = 0.5,
+    b: float = 1.0,
+    c: float = 1.5,
+    k: float = 0.5,
+    eps: float = 1.0,
+) -> MetriplecticSystem:
     """A rigid body with quartic anisotropy and a quartic Casimir: neither H nor S is quadratic.
 
         H = (a x^2 + b y^2 + c z^2) / 2 + k (x^4 + y^4 + z^4) / 4,
@@ -99,6 +110,13 @@ def quartic_rigid_body(a: float = 0.5, b: float = 1.0, c: float = 1.5, k: float 
     if not 0.0 <= k < float("inf"):
         raise ValueError(f"`k` must be finite and >= 0; got {k!r}.")
     return MetriplecticSystem(
-        H=_quartic_H, grad_H=_quartic_grad_H, S=_quartic_S, grad_S=_quartic_grad_S, J=_identity_J,
-        eps=eps, params=params + [k], name="quartic_rigid_body", exact_flows={"rotor_splitting": ()},
+        H=_quartic_H,
+        grad_H=_quartic_grad_H,
+        S=_quartic_S,
+        grad_S=_quartic_grad_S,
+        J=_identity_J,
+        eps=eps,
+        params=params + [k],
+        name="quartic_rigid_body",
+        exact_flows={"rotor_splitting": ()},
     )
