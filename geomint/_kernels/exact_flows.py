@@ -1,4 +1,4 @@
-"""Exact flows of Hamiltonian sub-systems, in closed form.
+"""[R3] Exact flows of Hamiltonian sub-systems in R^3, in closed form.
 
 * ``jacobi_sn_cn_dn``: Jacobi elliptic functions by the arithmetic-geometric
   mean and descending Landen transformation (Abramowitz & Stegun 16.4).

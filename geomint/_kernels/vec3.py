@@ -1,4 +1,4 @@
-"""Arithmetic on 3-vectors held as tuples of floats (no allocation in hot loops), and compensated summation.
+"""[R3] Arithmetic on 3-vectors held as tuples of floats (no allocation in hot loops), and compensated summation.
 
 These are ordinary compiled functions (``jit.inner``), not numba-inlined ones;
 LLVM inlines them all the same (docs/design.md section 5).

@@ -1,4 +1,4 @@
-"""Exact and explicit Hamiltonian sub-flows that a system declares it admits.
+"""[R3] Exact and explicit Hamiltonian sub-flows in R^3 that a system declares it admits.
 
 Each applies to the Hamiltonian part ``xi_P`` only: inside ``Lie``/``Strang``
 as the Hamiltonian sub-integrator, or alone on a system with ``eps = 0``.  A
