@@ -349,7 +349,7 @@ def test_a_read_only_install_with_a_read_only_home_imports_and_solves(tmp_path):
         "s = geomint.solve(b, [0.6, 0.0, 0.8], (0.0, 1.0), 0.1, method='rk4'); "
         "print(s.success, geomint._cache.CACHE, geomint._cache.ROOT)"
     )
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("NUMBA_CACHE", "XDG_", "PYTHON"))}
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("NUMBA_CACHE", "GEOMINT_CACHE", "XDG_", "PYTHON"))}
     env.update(PYTHONPATH=str(site), HOME=str(home), TMPDIR=str(tmp))
     for path in [*site.rglob("*"), site, home]:
         path.chmod(0o555 if path.is_dir() else 0o444)
