@@ -42,14 +42,13 @@ _SHAPE_NOTE = {
 }
 
 
-#: adaptive steps with no method named run Gonzalez() at rtol >= LOOSE_RTOL (its error along the trajectory
-#: measured 1.3-11 x rtol at 1e-3) and Projected(DormandPrince853()) below it (0.0004-0.1 x rtol, rtol 1e-3 to
-#: 1e-10; docs/coming-from-scipy.md)
+#: adaptive steps with no method named run Gonzalez() at rtol >= LOOSE_RTOL and Projected(DormandPrince853())
+#: below it, the method that meets a tight rtol with H exact and S monotone (docs/coming-from-scipy.md)
 LOOSE_RTOL = 1e-3
 
 
 #: a method that controls its error per step (``follows_tolerance`` False) is flagged below this rtol: its error
-#: along the trajectory lags as rtol^(p/(p+1)) and was measured beyond 100 x rtol below it
+#: along the trajectory lags as rtol^(p/(p+1)), beyond 100 x rtol below it (docs/coming-from-scipy.md)
 PER_STEP_RTOL_FLOOR = 1e-5
 
 
@@ -133,8 +132,7 @@ def solve(
         ``rtol >= 100 eps``, ``atol >= 0``, not both 0.  ``atol`` not given is
         ``rtol / 1000`` (scipy's 1e-6 at the default rtol), so that rtol alone
         sets the accuracy: with ``method=None`` the error along the
-        trajectory is within ``rtol`` (measured 0.0004-0.1 x rtol, rtol 1e-4 to
-        1e-10, docs/coming-from-scipy.md).
+        trajectory is within ``rtol`` (docs/coming-from-scipy.md).
     first_step, max_step : float or None (adaptive steps only)
         The first step to try (default: chosen from the field, as scipy does)
         and the largest allowed (default: no bound).
