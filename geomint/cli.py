@@ -125,7 +125,7 @@ def _parser():
     )
     drift.add_argument("--h", type=_number(float, 0.0, True), default=0.05, help="step size (default 0.05)")
     drift.add_argument(
-        "--eps", type=_number(float, 0.0, False), default=0.1, help="perturbation parameter (default 0.1)"
+        "--eps", type=_number(float, 0.0, False), default=0.1, help="the dissipation parameter ε (default 0.1)"
     )
     return parser
 

@@ -101,6 +101,8 @@ def windowed_drift(
     ``t_first`` (default: the second saved time) is the first window edge
     after the start; earlier states fall into the first window.
     """
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
+        raise ValueError(f"`count` must be an integer >= 1 (the number of windows); got {count!r}.")
     t = sol.t - sol.t[0]
     if t.size < 2 or t[-1] <= 0:
         raise ValueError(f"`sol` must hold at least two saved times; got {t.size}.")
@@ -171,7 +173,10 @@ def observed_order(step_sizes: npt.ArrayLike, errors: npt.ArrayLike, floor: floa
             break
         keep.append(i)
     if len(keep) < 3:
-        raise ValueError(f"need >= 3 points above the round-off plateau; errors = {e.tolist()}")
+        raise ValueError(
+            f"`step_sizes` must give >= 3 errors above the round-off floor {floor:g}, decreasing as h does; got "
+            f"step_sizes = {h.tolist()}, errors = {e.tolist()}."
+        )
     slope, _ = np.polyfit(np.log(h[keep]), np.log(e[keep]), 1)
     return float(slope)
 

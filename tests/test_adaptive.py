@@ -53,7 +53,7 @@ def _reference(system, x0, t_end):
 @pytest.mark.parametrize("method", ADAPTIVE, ids=_ids)
 def test_every_accepted_adaptive_step_keeps_H_and_does_not_raise_S(animal, method):
     """Random starts and tolerances: every saved (accepted) step checked in ulps of the terms.  rtol 1e-12 is
-    where the anchor's reach shortens and steps are pulled back onto H(x0) (``adaptive`` module docstring)."""
+    where the anchor's reach shortens and steps are pulled back onto H(x0) (``geomint._kernels.control`` docstring)."""
 
     @settings(max_examples=8, deadline=None)
     @given(x0=animal.states, rtol=st.sampled_from([1e-3, 1e-6, 1e-9, 1e-12]))
@@ -144,7 +144,7 @@ def test_stiff_relaxation_runs_adaptively_with_damped_gonzalez():
 def test_near_an_equilibrium_a_tight_tolerance_does_not_make_the_run_crawl(method):
     """The quartic body relaxing onto its major axis at rtol = atol = 1e-12: the anchor's correction of a few
     ulps of H moves the state along the level set by ~ulp |J| / |xi|, which near the axis exceeds the tolerance
-    at every step length.  Before the anchor's reach was controlled (``adaptive`` module docstring), Gonzalez
+    at every step length.  Before the anchor's reach was controlled (``geomint._kernels.control`` docstring), Gonzalez
     crawled near t = 19.82 (18 million rejections in 0.005 time units) and did not finish in minutes."""
     quartic = geomint.systems.quartic_rigid_body(k=0.5, eps=0.1)
     sol = geomint.solve(quartic, M0, (0.0, 20.0), rtol=1e-12, atol=1e-12, method=method)

@@ -429,7 +429,9 @@ def test_resume_without_a_checkpoint_or_for_another_scene_is_one_line(tmp_path, 
     scene = _scene(tmp_path, VALID)
     code, err = _cli(["run", scene, "--out", tmp_path / "out", "--resume"], capsys)
     assert code == BAD_INPUT
-    _one_line_error(err, r"--resume: no checkpoint in .*scene.checkpoint; run with a checkpoint first")
+    _one_line_error(
+        err, r"--resume: no checkpoint in .*scene.checkpoint \(the run finished, .*\); run with a checkpoint first"
+    )
     assert _cli(["run", scene, "--out", tmp_path / "out", "--checkpoint-every", 3, "--quiet"], capsys)[0] == OK
     (tmp_path / "out" / "scene.checkpoint").mkdir()
     (tmp_path / "out" / "scene.checkpoint" / "checkpoint.json").write_text('{"scene": {}, "every": 3}')

@@ -100,3 +100,14 @@ def test_to_xarray_without_xarray_says_how_to_install_it(monkeypatch):
     sol = geomint.solve(BODY, X0, (0.0, 1.0), 0.1)
     with pytest.raises(ImportError, match=r"pip install geomint\[xarray\]"):
         sol.to_xarray()
+
+
+def test_the_accuracy_flags_survive_save_and_load(tmp_path):
+    """A run flagged as far beyond the dynamics keeps its caveats and step ratio through a file (and xarray)."""
+    body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
+    with pytest.warns(geomint.AccuracyWarning):
+        sol = geomint.solve(body, [0.6, 0.0, 0.8], (0.0, 2e4), 1e4)
+    again = geomint.load(sol.save(tmp_path / "flagged"))
+    assert sol.caveats and again.caveats == sol.caveats and again.step_ratio == sol.step_ratio > 1e3
+    plain = geomint.load(geomint.solve(body, [0.6, 0.0, 0.8], (0.0, 1.0), 0.1).save(tmp_path / "plain"))
+    assert plain.caveats == () and 0 < plain.step_ratio < 1

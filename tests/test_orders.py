@@ -38,5 +38,5 @@ def test_observed_order_drops_the_round_off_plateau():
     h = np.array([0.1, 0.05, 0.025, 0.0125, 0.00625])
     errors = np.maximum(h**4, 1e-14)  # the last point is on the plateau
     assert observed_order(h, errors) == pytest.approx(4.0, abs=1e-9)
-    with pytest.raises(ValueError, match="need >= 3 points"):
+    with pytest.raises(ValueError, match="`step_sizes` must give >= 3 errors"):
         observed_order(h, np.full(5, 1e-15))

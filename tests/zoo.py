@@ -220,6 +220,16 @@ def _resolved(value):
     return 0.0 if abs(value) < RESOLVED else value
 
 
+#: states of a smaller nonzero size are not drawn: below ~1e-5 a projected method can let S rise by ~1e-7 of
+#: itself (docs/hard_cases.md, "Projected methods at small amplitude"; pinned by a strict xfail in test_zoo.py)
+MINUTE = 1e-3
+
+
+def _not_minute(x):
+    size = float(np.max(np.abs(x)))
+    return size == 0.0 or size >= MINUTE
+
+
 @dataclass(frozen=True)
 class Box:
     """States in ``[low, high]`` (per coordinate) that pass ``accept``."""
@@ -230,7 +240,8 @@ class Box:
 
     def strategy(self):
         coordinates = (st.floats(lo, hi, allow_nan=False).map(_resolved) for lo, hi in zip(self.low, self.high))
-        return st.tuples(*coordinates).map(lambda t: np.array(t, dtype=np.float64)).filter(self.accept)
+        states = st.tuples(*coordinates).map(lambda t: np.array(t, dtype=np.float64))
+        return states.filter(lambda x: _not_minute(x) and self.accept(x))
 
     def draw(self, rng, n):
         """``n`` states drawn uniformly by ``rng`` (a numpy Generator), for the failure tables."""

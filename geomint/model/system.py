@@ -376,7 +376,7 @@ class MetriplecticSystem:
 
         Text is parsed by a whitelist grammar (never evaluated), gradients are exact, the
         structure is checked symbolically, and generated numba code is cached on disk:
-        see ``geomint.expressions.build`` for the grammar and every argument.
+        see ``geomint.model.expressions.build`` for the grammar and every argument.
         """
         from . import expressions
 

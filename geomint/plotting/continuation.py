@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -18,7 +18,7 @@ if TYPE_CHECKING:
 
 
 def continuation_figure(
-    results: Iterable[Continuation],
+    results: Continuation | Iterable[Continuation],
     path: str | os.PathLike[str] | None = None,
     columns: int = 3,
 ) -> Figure:
@@ -32,7 +32,7 @@ def continuation_figure(
 
     Parameters
     ----------
-    results : sequence of geomint.continuation.Continuation
+    results : geomint.continuation.Continuation, or a sequence of them
     path : str or Path, optional
     columns : int
 
@@ -46,10 +46,11 @@ def continuation_figure(
     17
     """
     plt = pyplot()
-    results = list(results)
-    rows = -(-len(results) // columns)
+    one = hasattr(results, "branches")  # one Continuation, or several
+    runs = cast("list[Continuation]", [results] if one else list(cast("Iterable[Continuation]", results)))
+    rows = -(-len(runs) // columns)
     fig, axes = plt.subplots(rows, columns, figsize=(4.6 * columns, 3.6 * rows), squeeze=False)
-    for ax, result in zip(axes.ravel(), results):
+    for ax, result in zip(axes.ravel(), runs):
         colors = plt.get_cmap("tab20")(np.arange(len(result.branches)) % 20)
         for color, branch in zip(colors, result.branches):
             real = branch.eigenvalues.real
@@ -69,7 +70,7 @@ def continuation_figure(
         ax.set_title(f"{result.name}, H0 = {result.H0:g}", fontsize=9)
         ax.grid(True, linewidth=0.4, alpha=0.6)
         ax.legend(fontsize=5.5, loc="best")
-    for ax in axes.ravel()[len(results) :]:
+    for ax in axes.ravel()[len(runs) :]:
         ax.set_visible(False)
     fig.tight_layout()
     if path is not None:

@@ -6,7 +6,7 @@ allow_pickle=False)`` reads it):
 - arrays ``t (n,)``, ``x (n, 3)``, ``H (n,)``, ``S (n,)``;
 - ``metadata``: one JSON string with ``format``, ``format_version``, the
   geomint version (no git state), the status fields and work counts, the
-  method as data (``geomint.method_data``: name and options, nested) and,
+  method as data (``geomint.integrators.data``: name and options, nested) and,
   when given, the system (name, parameters, eps, effects, and its formulas
   when it was built from expressions).
 
@@ -57,6 +57,9 @@ def metadata(solution: Solution, system: MetriplecticSystem | None = None) -> di
         **{key: _plain(getattr(solution, key)) for key in _SCALARS},
         "method": method_to_data(method) if isinstance(method, Integrator) else str(method),
         "system": None if system is None else system_metadata(system),
+        # why a successful run may not be accurate (optional keys: files written before them read as none)
+        "caveats": list(getattr(solution, "caveats", ())),
+        "step_ratio": _plain(getattr(solution, "step_ratio", None)),
     }
 
 
@@ -108,7 +111,8 @@ def read(path: str | os.PathLike[str]) -> dict[str, Any]:
         method = method_from_data(meta["method"]) if isinstance(meta["method"], dict) else meta["method"]
     except MethodDataError:
         method = meta["method"]
-    return {**arrays, **{key: meta[key] for key in _SCALARS}, "method": method}
+    caveats = {"caveats": tuple(meta.get("caveats") or ()), "step_ratio": meta.get("step_ratio")}
+    return {**arrays, **{key: meta[key] for key in _SCALARS}, "method": method, **caveats}
 
 
 def to_xarray(solution: Solution, system: MetriplecticSystem | None = None) -> Any:  # an xarray.Dataset

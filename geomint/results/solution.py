@@ -71,7 +71,7 @@ class Solution:
         there (``(n_k, 3)``; each a step of the method landing on that time).
     sol : callable or None
         With ``dense_output=True``: the cubic Hermite interpolant through the
-        steps (``geomint.dense.Hermite``), ``sol(t)`` of shape (3,) or (3, m).
+        steps (``geomint.results.dense.Hermite``), ``sol(t)`` of shape (3,) or (3, m).
     caveats : tuple of str
         Why the states may not be accurate although the run succeeded (each
         sentence also ends ``message`` and was issued as an ``AccuracyWarning``):
@@ -80,7 +80,7 @@ class Solution:
     step_ratio : float or None
         Fixed steps: ``|h|`` times the field's local rate (the 2-norm of its
         Jacobian, the larger at the first and the last state; the conservative
-        part only for damped methods).  Above ``geomint.solve.STEP_RATIO_LIMIT``
+        part only for damped methods).  Above ``geomint.run.solve.STEP_RATIO_LIMIT``
         the run is flagged.  None for adaptive steps.
     """
 
@@ -135,11 +135,11 @@ class Solution:
         return self.count_S_rises()
 
     def save(self, path: str | os.PathLike[str], system: MetriplecticSystem | None = None) -> Path:
-        """Write to ``path`` (.npz with JSON metadata; ``system`` recorded if given): ``geomint.io.save``."""
+        """Write to ``path`` (.npz with JSON metadata; ``system`` recorded if given): ``geomint.results.io.save``."""
         return _io.save(self, path, system)
 
     def to_xarray(self, system: MetriplecticSystem | None = None) -> Any:  # an xarray.Dataset
-        """An ``xarray.Dataset`` of this solution (optional dependency): ``geomint.io.to_xarray``."""
+        """An ``xarray.Dataset`` of this solution (optional dependency): ``geomint.results.io.to_xarray``."""
         return _io.to_xarray(self, system)
 
     def count_S_rises(self, ulps: float = 16) -> int:

@@ -44,10 +44,14 @@ def check_states(value: object, name: str, one: bool = True) -> npt.NDArray[np.f
     ):
         raise TypeError(f"`{name}` must be {kind}; got {value!r}.")  # True is no coordinate, even beside numbers
     if states.ndim != (1 if one else 2) or states.shape[-1] != DIMENSION or states.size == 0:
+        length = states.shape[-1] if states.ndim else 0
+        why = (
+            f"states of length {DIMENSION}, as geomint integrates systems in R^{DIMENSION} (got length {length})"
+            if length != DIMENSION
+            else ("one state, a 1-D array" if one else "a 2-D array, a row per start")
+        )
         raise ValueError(
-            f"`{name}` must have shape {shape}{'' if one else ' with n >= 1'}; got shape {states.shape}: "
-            f"states of length {DIMENSION}, as geomint integrates systems in R^{DIMENSION} (got length "
-            f"{states.shape[-1] if states.ndim else 0})."
+            f"`{name}` must have shape {shape}{'' if one else ' with n >= 1'}; got shape {states.shape}: {why}."
         )
     return states
 

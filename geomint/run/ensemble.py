@@ -327,10 +327,14 @@ def solve_ensemble(
 
 
 def _step_ratios(system, integrator, h, X0, ends, params, eps):
-    """``solve.step_ratios`` of every trajectory, run with its own eps and params (``RATIO_GROUPS``)."""
+    """``solve.step_ratios`` of every trajectory, run with its own eps and params: for the ``RATIO_GROUPS``
+    distinct (eps, params) with the largest eps (the stiffest, where a step is likeliest to be far beyond the
+    dynamics); the others keep NaN."""
     ratio, rate = np.full(len(X0), np.nan), np.full(len(X0), np.nan)
     keys, group = np.unique(np.column_stack([eps, params]), axis=0, return_inverse=True)
-    for k, key in enumerate(keys[:RATIO_GROUPS]):
+    stiffest_first = np.argsort(-np.abs(keys[:, 0]), kind="stable")
+    for k in stiffest_first[:RATIO_GROUPS]:
+        key = keys[k]
         members = np.flatnonzero(group.ravel() == k)
         try:
             own = system.with_effects(
@@ -718,10 +722,13 @@ def _on_dask(client, system, X0, t_span, integrator, params, eps, progress, chun
 
 
 def _dask_task(system, X0, t_span, integrator, params, eps, threads, options):
-    """One chunk on a Dask worker: the local batch kernel (``options``: the step and output keywords)."""
-    return solve_ensemble(
-        system, X0, t_span, method=integrator, params=params, eps=eps, chunk=len(X0), threads=threads, **options
-    )
+    """One chunk on a Dask worker: the local batch kernel (``options``: the step and output keywords).  Its
+    caveats travel back in the chunk's result; the client warns once, with the ensemble's own indices."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AccuracyWarning)
+        return solve_ensemble(
+            system, X0, t_span, method=integrator, params=params, eps=eps, chunk=len(X0), threads=threads, **options
+        )
 
 
 def _concatenate(parts, integrator):

@@ -15,7 +15,7 @@ from ``x_n`` landing on ``s``: the zero of the computed solution, as accurate
 as the method.  The state recorded at the event, ``x_events``, is that step's
 state, so it keeps H and S exactly as every step does.  (Where such a step
 fails, or does not show the sign change the accepted step showed, the cubic
-Hermite interpolant of the step, ``geomint.dense``, is used instead.)  A terminal event ends the run there, with
+Hermite interpolant of the step, ``geomint.results.dense``, is used instead.)  A terminal event ends the run there, with
 ``status = 1``.
 
 Built-ins: ``relaxed`` (the field has become small: the state has relaxed

@@ -150,7 +150,7 @@ def solve(
         run (``status = 1``).
     dense_output : bool, default False
         ``sol.sol(t)``: the cubic Hermite interpolant through every accepted
-        step (``geomint.dense``), shape (3,) or (3, m) as scipy's.  It is not
+        step (``geomint.results.dense``), shape (3,) or (3, m) as scipy's.  It is not
         on ``H = H0`` between steps.
     args : sequence of float or None
         The system's ``params`` for this run (as scipy's ``args`` reach
@@ -246,7 +246,7 @@ def choose_method(method: Integrator | str | None, h: float | None, rtol: float 
 
 
 def follows_tolerance(integrator: Integrator) -> bool:
-    """Whether the error along an adaptive run of ``integrator`` follows ``rtol`` (``adaptive`` module
+    """Whether the error along an adaptive run of ``integrator`` follows ``rtol`` (``geomint._kernels.control``
     docstring): an embedded pair's estimate, an exact flow, or step doubling of order ``p >= 4`` (run at a
     tolerance-proportional ``rtol^((p+1)/p)``, ``control.proportional_tolerance``).  Any other estimate
     controls the error per step, and the error along the trajectory lags as ``rtol^(p/(p+1))``."""

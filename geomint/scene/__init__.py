@@ -29,7 +29,7 @@ what to record and draw.  As a TOML file (read with the standard library's
     every = 5                  # save every 5th state; "final": initial and final only
     figures = ["overview"]
 
-A system written as formulas (``geomint.expressions``: a whitelist grammar of
+A system written as formulas (``geomint.model.expressions``: a whitelist grammar of
 numbers, x, y, z, parameter names, + - * / ** and exp, log, sin, cosh, ...;
 formulas are parsed, never evaluated) replaces ``name`` by ``H``, ``S`` and
 ``J`` (3 formulas) or ``P`` (3x3 formulas); ``name`` is then a label::

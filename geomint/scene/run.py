@@ -317,7 +317,10 @@ def _checkpoint_folder(scene, checkpoint, resume):
     stamp = folder / "checkpoint.json"
     if resume:
         if not stamp.is_file():
-            raise CheckpointError(f"no checkpoint in {folder}; run with a checkpoint first.")
+            raise CheckpointError(
+                f"no checkpoint in {folder} (the run finished, which removes it, or was not checkpointed); "
+                "run with a checkpoint first."
+            )
         written = json.loads(stamp.read_text())
         if written.get("scene") != json.loads(json.dumps(scene.to_dict())):
             raise CheckpointError(
