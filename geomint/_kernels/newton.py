@@ -90,71 +90,23 @@ def _residual(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h, x_new,
 
 
 @inner
+def _residual_column(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h, shifted, scales, r0, delta):
+    """One column of the residual's Jacobian: ``(R(shifted) - R(x_new)) / delta``, ``r0 = R(x_new)``."""
+    r = _residual(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h, shifted, scales)
+    return scale(1.0 / delta, sub(r, r0))
+
+
+@inner
 def _residual_matrix(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h, x_new, scales):
     """Rows of the Jacobian of ``R(x') = x' - x - h F(x, x')`` at ``x_new`` (4 discrete-field calls)."""
     r0 = _residual(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h, x_new, scales)
     size = norm_inf(x_new)
-    delta = SQRT_EPS * (size if size > 0.0 else 1.0)
-    c0 = scale(
-        1.0 / delta,
-        sub(
-            _residual(
-                kind,
-                coeffs,
-                model,
-                eps,
-                hamiltonian,
-                buf,
-                x,
-                H_x,
-                S_x,
-                h,
-                (x_new[0] + delta, x_new[1], x_new[2]),
-                scales,
-            ),
-            r0,
-        ),
-    )
-    c1 = scale(
-        1.0 / delta,
-        sub(
-            _residual(
-                kind,
-                coeffs,
-                model,
-                eps,
-                hamiltonian,
-                buf,
-                x,
-                H_x,
-                S_x,
-                h,
-                (x_new[0], x_new[1] + delta, x_new[2]),
-                scales,
-            ),
-            r0,
-        ),
-    )
-    c2 = scale(
-        1.0 / delta,
-        sub(
-            _residual(
-                kind,
-                coeffs,
-                model,
-                eps,
-                hamiltonian,
-                buf,
-                x,
-                H_x,
-                S_x,
-                h,
-                (x_new[0], x_new[1], x_new[2] + delta),
-                scales,
-            ),
-            r0,
-        ),
-    )
+    d = SQRT_EPS * (size if size > 0.0 else 1.0)
+    a, b, c = x_new
+    at = (kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h)
+    c0 = _residual_column(*at, (a + d, b, c), scales, r0, d)
+    c1 = _residual_column(*at, (a, b + d, c), scales, r0, d)
+    c2 = _residual_column(*at, (a, b, c + d), scales, r0, d)
     return ((c0[0], c1[0], c2[0]), (c0[1], c1[1], c2[1]), (c0[2], c1[2], c2[2]))
 
 
