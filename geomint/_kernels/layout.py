@@ -201,3 +201,14 @@ LEAF_MARKERS = {
 #: ``origin = (H(0), grad H(0), S(0), grad S(0))`` (8 floats, 0 where not finite), from which the
 #: kernels measure the constant and linear terms of H and S (``roundoff.origin_terms``)
 Model = namedtuple("Model", "H grad_H S grad_S J params origin")
+
+#: a system in R^n (n = len(x)) as the kernels receive it.  First-class user functions of ``(x, params)``, ``x`` a
+#: contiguous float64 array of length n: ``H``, ``S`` -> float; ``grad_H``, ``grad_S`` -> (n,) arrays; ``P`` ->
+#: (n, n) skew matrix (GENERIC's L); ``M`` -> (n, n) symmetric matrix that replaces the paper's metric g where
+#: ``metric`` is ``USER_METRIC`` (Fish form: the user's G, negative semidefinite, G grad H = 0; GENERIC: the
+#: friction matrix, positive semidefinite, M grad E = 0), never called where it is ``PAPER_METRIC``.  The field is
+#: ``P grad H + eps D grad S`` with D = g or M; ``direction`` is -1.0 where S never rises (Fish), +1.0 where it
+#: never falls (GENERIC, eps = 1).  ``origin`` holds H(0), S(0) (0 where not finite): the constant terms.
+ModelN = namedtuple("ModelN", "H grad_H S grad_S P M params metric direction origin")
+PAPER_METRIC = 0
+USER_METRIC = 1
