@@ -14,9 +14,7 @@ import numpy as np
 from numba import njit
 
 from .._cache import CACHE
-from .composition import pull_back
 from .control import FAILED_FACTOR, PULL_BACK_ITER, accept, attempt, now, on_rejection, propose, traits
-from .field import non_finite_culprit
 from .jit import inner
 from .layout import (
     C_COUNT,
@@ -38,17 +36,13 @@ from .layout import (
     REJECTED,
     ROWS,
     SAFEGUARD_FIRED,
-    STATE_ANCHOR,
-    STATE_COMP,
-    STATE_S,
-    STATE_X,
     STATUS,
     STEP_TOO_SMALL,
     STEPS,
     SUB_STEP_RISES,
     USER_RAISED,
 )
-from .vec3 import flush_tiny, is_finite, load, same
+from .state import ANCHOR, S_AT, culprit_of, finite, flushed, keep, pack, point, pulled_back, save_row, unchanged, unpack
 
 #: the output arrays: saved times, states, H, S; ``counters`` (``layout`` codes); the last residual
 Output = namedtuple("Output", "t x H S counters residual")
@@ -58,7 +52,7 @@ Output = namedtuple("Output", "t x H S counters residual")
 def _save(out, t, x, H_x, S_x):
     row = out.counters[ROWS]
     out.t[row] = t
-    out.x[row, 0], out.x[row, 1], out.x[row, 2] = x
+    save_row(out.x, row, x)
     out.H[row] = H_x
     out.S[row] = S_x
     out.counters[ROWS] = row + 1
@@ -94,17 +88,16 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
     counters = out.counters
     buf = np.empty(3)
     p = model.params
-    x = (state[STATE_X], state[STATE_X + 1], state[STATE_X + 2])
-    comp = (state[STATE_COMP], state[STATE_COMP + 1], state[STATE_COMP + 2])
+    x, comp = unpack(model, state)
     if counters[ROWS] == 0:
-        load(buf, x)
-        H0 = model.H(buf, p)
-        if np.isnan(state[STATE_ANCHOR]):
-            state[STATE_ANCHOR] = H0
-        state[STATE_S] = model.S(buf, p)
-        _save(out, clock[C_T], x, H0, state[STATE_S])
-    anchor = state[STATE_ANCHOR]
-    S_x = state[STATE_S]
+        at = point(buf, x)
+        H0 = model.H(at, p)
+        if np.isnan(state[ANCHOR]):
+            state[ANCHOR] = H0
+        state[S_AT] = model.S(at, p)
+        _save(out, clock[C_T], x, H0, state[S_AT])
+    anchor = state[ANCHOR]
+    S_x = state[S_AT]
     H_x = np.nan  # H at x, evaluated when the anchor's reach is short of 1
     adaptive, lazy, period, exponent, rise = traits(control)  # rise >= 0: S rises counted (``control.Counting``)
     countdown = period - int(clock[C_COUNT]) % period if period > 0 else 0  # saving when it is 1
@@ -120,7 +113,7 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
         H_target = anchor
         if adaptive and clock[C_REACH] < 1.0:
             if np.isnan(H_x):
-                H_x = model.H(load(buf, x), p)
+                H_x = model.H(point(buf, x), p)
             H_target = H_x + clock[C_REACH] * (anchor - H_x)
         r, err, rises, fired = attempt(control, method, model, eps, hamiltonian, buf, x, comp, H_target, S_x, h, work)
         iterations += r.iterations
@@ -129,18 +122,18 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
         status, culprit = r.status, r.culprit
         if counters[RAISED] != 0:  # a user function raised inside the step: its values were garbage
             status = USER_RAISED
-        x_new, comp_new = flush_tiny(r.x, r.comp)
+        x_new, comp_new = flushed(r.x, r.comp)
         H_new, S_new = r.H, r.S
         saving = landing or countdown == 1
-        if status == OK and not is_finite(x_new):
+        if status == OK and not finite(x_new):
             status = NON_FINITE
         if lazy:  # H and S only where saved, or where the step knows S
-            evaluate = (saving or not np.isnan(S_new)) and (np.isnan(H_new) or not same(x_new, r.x))
+            evaluate = (saving or not np.isnan(S_new)) and (np.isnan(H_new) or not unchanged(x_new, r.x))
         else:
-            evaluate = np.isnan(H_new) or np.isnan(S_new) or not same(x_new, r.x)
+            evaluate = np.isnan(H_new) or np.isnan(S_new) or not unchanged(x_new, r.x)
         if status == OK and evaluate:
-            load(buf, x_new)
-            H_new, S_new = model.H(buf, p), model.S(buf, p)
+            at = point(buf, x_new)
+            H_new, S_new = model.H(at, p), model.S(at, p)
         if status == OK and (saving or not lazy) and not (np.isfinite(H_new) and np.isfinite(S_new)):
             status = NON_FINITE
         if adaptive:
@@ -159,18 +152,17 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
                 continue
         if status != OK:
             if status == NON_FINITE and culprit == 0:
-                culprit = non_finite_culprit(model, buf, x_new if is_finite(x_new) else x, hamiltonian)
+                culprit = culprit_of(model, buf, x_new if finite(x_new) else x, hamiltonian)
             counters[STATUS] = status
             counters[FAILED_STEP] = counters[STEPS] + steps + 1
             counters[CULPRIT] = culprit
             if out.t[counters[ROWS] - 1] != t_now:  # the last good state was not saved yet
-                load(buf, x)
-                H_last = model.H(buf, p)
-                _save(out, t_now, x, H_last, model.S(buf, p) if lazy else S_x)
+                at = point(buf, x)
+                _save(out, t_now, x, model.H(at, p), model.S(at, p) if lazy else S_x)
             break
         if adaptive and H_target != anchor:  # the step kept (nearly) its own energy: back onto the anchor's
-            x_new, H_new, S_new, ev = pull_back(
-                model, buf, x_new, H_new, S_new, anchor, max(S_x, S_new), PULL_BACK_ITER
+            x_new, H_new, S_new, ev = pulled_back(
+                model, buf, x_new, H_new, S_new, anchor, max(S_x, S_new), PULL_BACK_ITER, work
             )
             evaluations += ev
         if rise >= 0.0:
@@ -180,7 +172,7 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
         t_new = accept(control, clock, t_now, h, err, landing, target, exponent, after_rejection)
         after_rejection = False
         streak_h = 0.0
-        x, comp, S_x, H_x = x_new, comp_new, S_new, H_new
+        x, comp, S_x, H_x = keep(x, x_new), keep(comp, comp_new), S_new, H_new
         steps += 1
         countdown = period if saving else countdown - 1
         if saving:
@@ -190,6 +182,5 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
     counters[FIELD_EVALUATIONS] += evaluations
     counters[REJECTED] += rejected
     out.residual[0] = residual
-    state[STATE_X], state[STATE_X + 1], state[STATE_X + 2] = x
-    state[STATE_COMP], state[STATE_COMP + 1], state[STATE_COMP + 2] = comp
-    state[STATE_S] = S_x
+    pack(state, x, comp)
+    state[S_AT] = S_x

@@ -12,8 +12,9 @@ from numba.extending import overload
 
 from .composition import composed_step
 from .dg_step import discrete_gradient_step
-from .layout import ComposedStep, DiscreteGradientStep, EmbeddedPairStep, RungeKutta4
+from .layout import ComposedStep, DiscreteGradientStep, EmbeddedPairStep, ModelN, RungeKutta4
 from .runge_kutta import pair_step, rk4_step
+from .step_n import discrete_gradient_step_n, rk4_step_n
 
 
 @njit(inline="always")
@@ -52,17 +53,32 @@ def _pair(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work)
     return pair_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work, False)[0]
 
 
+@njit(inline="always")
+def _rk4_n(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
+    return rk4_step_n(model, eps, hamiltonian, x, comp, h, work)
+
+
+@njit(inline="always")
+def _discrete_gradient_n(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
+    return discrete_gradient_step_n(
+        method.kind.code, method.max_iter, method.coeffs, model, eps, hamiltonian, x, comp, H_anchor, S_x, h, work
+    )
+
+
 _STEPS = {RungeKutta4: _rk4, DiscreteGradientStep: _discrete_gradient, ComposedStep: _composed, EmbeddedPairStep: _pair}
+#: the steps in R^n (``step_n``), chosen where the model is a ``layout.ModelN``
+_STEPS_N = {RungeKutta4: _rk4_n, DiscreteGradientStep: _discrete_gradient_n}
 
 
 def step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
     """One step of ``method`` from ``x`` (a ``layout.StepResult``); ``H_anchor`` is H(x0), ``S_x`` S(x)."""
-    return _STEPS[type(method)](method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work)
+    steps = _STEPS_N if isinstance(model, ModelN) else _STEPS
+    return steps[type(method)](method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work)
 
 
 @overload(step, inline="always")
 def _step_typed(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
-    impl = _STEPS[method.instance_class]
+    impl = (_STEPS_N if model.instance_class is ModelN else _STEPS)[method.instance_class]
     return lambda method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work: impl(
         method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work
     )

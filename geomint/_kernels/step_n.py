@@ -1,0 +1,551 @@
+"""The steps in R^n: the projected metriplectic discrete-gradient step, solved to round-off, and RK4.
+
+For discrete gradients ``dgH``, ``dgS`` (``dgF . (x' - x) = F(x') - F(x)``) the step solves
+
+    x' - x = h [ Pbar dgH + eps Dbar dgS ],   Pbar = Pi_S P(xbar) Pi_S,   xbar = (x + x') / 2,
+    Pi_S = I - s s^T,  s = dgS / |dgS|,
+    Dbar = dgH dgH^T - |dgH|^2 I            (the paper's metric, from the discrete gradient)
+         = Pi_H M(xbar) Pi_H                (a metric M the user gives; Pi_H likewise from dgH)
+
+so that ``H(x') - H(x) = dgH . (x' - x) = 0`` (Pbar skew, ``Dbar dgH = 0``) and
+``S(x') - S(x) = h eps dgS . Dbar dgS``, of the metric's sign (``Pbar dgS = 0``
+by the projection; without it S is a Casimir of ``P(xbar)`` for ``grad S(xbar)``
+only, not for ``dgS``, and drifts).  Order 2 for the symmetric discrete
+gradients (Gonzalez, AVF, symmetrized Itoh-Abe), 1 for Itoh-Abe.  In R^3,
+``Pi P Pi v = v x (J . s) s``: the R^3 kernels' ``Jbar`` (``discrete_field``).
+Reference: docs/engine_rn.md; the scheme for R^3 is Fish's construction with
+Gonzalez's discrete gradient (docs/theory.md).
+
+**Solving the step.**  Simplified Newton with the matrix
+``A = I - (h/2) D xi`` (the continuous field's Jacobian, by differences at the
+state, LU-factored once and kept in the workspace across iterations and steps
+while the iteration contracts, refreshed where it does not or where ``h``
+changes: the rules of SUNDIALS and RADAU5), from a predictor (the linearly
+implicit step at a fresh Jacobian, else the increment extrapolated from the
+last three).  The iteration stops at round-off: when the correction is within
+a few ulps of the increment, or stops shrinking.  **Exact under a stopped
+solve**: a solve stopped with residual r moves H by ``dgH . r``; the step
+then moves along ``d = Pi_S grad H(x')`` (which leaves S unchanged to first
+order) to ``H(x') = H(x0)`` by scalar Newton (``to_level``), and, where S has
+moved against its direction by more than round-off, along
+``Pi_H grad S(x')`` back to S(x) (which leaves H unchanged to first order).
+Both moves are of the size of the residual, so they keep the order.  A step
+whose result still misses H by ``ACCEPT_ULPS`` of its terms, or S by
+``ACCEPT_S_ULPS``, fails (``NEWTON_FAILED``) and the run stops with the state
+before it.
+"""
+
+import numpy as np
+
+from .discrete_gradient import SWITCH
+from .field_n import field_into, jacobian_into, non_finite_culprit_n
+from .jit import hot, inner
+from .layout import (
+    AVF,
+    EPS,
+    GONZALEZ,
+    ITOH_ABE,
+    NEWTON_FAILED,
+    NON_FINITE,
+    OK,
+    PAPER_METRIC,
+    SQRT_EPS,
+    SYMMETRIZED_ITOH_ABE,
+    UNKNOWN,
+    StepResult,
+)
+from .vecn import (
+    abs_dot,
+    all_finite,
+    axpy_into,
+    copy_into,
+    dot,
+    lu_factor,
+    lu_solve,
+    matvec_into,
+    norm_inf,
+    norm_rows,
+    remove_along,
+)
+
+#: an accepted step keeps H to its anchor within this many ulps of its terms
+ACCEPT_ULPS = 4.0
+
+
+#: and does not move S against its direction by more than this many ulps of its terms
+ACCEPT_S_ULPS = 2.0
+
+
+#: a first contraction rate above this makes the next step take a fresh Jacobian
+THETA_REFRESH = 0.1
+
+
+#: the level corrections move along the plain gradient where its part off the other gradient is below this
+PARALLEL = 1e-4
+
+
+#: a step whose increment is below this fraction of |x| is at rest: where the corrections cannot keep H and S
+#: (an equilibrium), it keeps x
+REST = SQRT_EPS
+
+
+#: rounds of the level corrections (each a few scalar Newton steps)
+CORRECTION_ROUNDS = 3
+
+
+#: the largest n for which the symmetrized Itoh-Abe gradient (an average over the n! coordinate orders) is offered
+MAX_SYMMETRIZED_DIM = 5
+
+
+# -- the workspace of a run in R^n: a header, vectors of length n, the Jacobian and its LU factors ---------------
+WN_H = 0  # the step the history and the factors were taken with
+WN_HISTORY = 1  # increments in the history (0..3)
+WN_FACTORED = 2  # 1: the LU factors of A = I - h/2 D xi at WN_H are valid
+WN_HEADER = 3
+V_DX1, V_DX2, V_DX3 = 0, 1, 2  # the last three increments
+V_NEW = 3  # the new state
+V_MID = 4  # the midpoint, and scratch of the field's Jacobian
+V_DGH, V_DGS = 5, 6  # the discrete gradients
+V_F = 7  # the discrete field
+V_R = 8  # the residual / the Newton correction
+V_A, V_B, V_C = 9, 10, 11  # scratch
+V_K1, V_K2, V_K3, V_K4 = 12, 13, 14, 15  # RK4 stages
+V_PIVOTS = 16
+N_VECTORS = 17
+
+
+def work_size(n):
+    """Floats of the workspace of a run in R^n: header, ``N_VECTORS`` vectors, D xi and the LU factors."""
+    return WN_HEADER + N_VECTORS * n + 2 * n * n
+
+
+@inner
+def vector(work, k, n):
+    """The workspace's vector ``k`` (``V_*``), a view of length n."""
+    start = WN_HEADER + k * n
+    return work[start : start + n]
+
+
+@inner
+def jacobian_matrix(work, n):
+    start = WN_HEADER + N_VECTORS * n
+    return work[start : start + n * n].reshape((n, n))
+
+
+@inner
+def lu_matrix(work, n):
+    start = WN_HEADER + N_VECTORS * n + n * n
+    return work[start : start + n * n].reshape((n, n))
+
+
+@inner
+def term_scale_n(f_old, f_new, gradient, x, constant):
+    """``max(|F(x)|, |F(x')|, sum_i |d_i F x_i|) + |F(0)|``: the size of the terms of F (the round-off of its
+    values, ``roundoff.term_scale`` in R^3)."""
+    return max(abs(f_old), abs(f_new), abs_dot(gradient, x)) + abs(constant)
+
+
+# -- discrete gradients ------------------------------------------------------------------------------------------
+@inner
+def _project_identity(out, f_old, f_new, dx, y, gain, constant):
+    """Gonzalez's projection of ``out`` onto ``out . dx = F(x') - F(x)``, in place, under the R^3 switching rule
+    (``discrete_gradient.gonzalez``): only where the defect exceeds its round-off bound and its correction's
+    round-off, carried into the step by ``gain``, stays below 1% of the step.  Returns that round-off (0 where
+    the correction is skipped)."""
+    slope = dot(out, dx)
+    defect = f_new - f_old - slope
+    bound = 2.0 * EPS * term_scale_n(f_old, f_new, out, y, constant)
+    largest = norm_inf(dx)
+    if not abs(defect) > bound or not bound * gain <= 0.01 * largest * largest or largest == 0.0:
+        return 0.0
+    length2 = 0.0
+    for i in range(dx.shape[0]):
+        length2 += (dx[i] / largest) ** 2
+    c = defect / largest / length2
+    for i in range(dx.shape[0]):
+        out[i] += c * (dx[i] / largest)
+    return bound / (largest * np.sqrt(length2))
+
+
+@inner
+def _itoh_abe_order(out, F, grad_F, params, x, y, f_old, f_new, order, vertex, mid, weight):
+    """``out += weight *`` Itoh-Abe's gradient with the coordinates changed in ``order``; the quotient of a
+    coordinate that moves by at most ``SWITCH |x|_inf`` is the partial derivative at the edge's midpoint."""
+    n = x.shape[0]
+    size = max(norm_inf(x), norm_inf(y))
+    copy_into(vertex, x)
+    f_prev = f_old
+    for k in range(n):
+        i = int(order[k])
+        d = y[i] - x[i]
+        vertex[i] = y[i]
+        f_next = f_new if k == n - 1 else F(vertex, params)
+        if abs(d) <= SWITCH * size:
+            copy_into(mid, vertex)
+            mid[i] = 0.5 * (x[i] + y[i])
+            out[i] += weight * grad_F(mid, params)[i]
+        else:
+            out[i] += weight * (f_next - f_prev) / d
+        f_prev = f_next
+
+
+@inner
+def discrete_gradient_n(kind, coeffs, F, grad_F, params, x, y, f_old, f_new, gain, constant, out, scratch):
+    """A discrete gradient of ``F`` between ``x`` and ``y`` into ``out`` (``kind``: ``layout`` codes):
+
+    * Gonzalez: ``grad F(xbar) + N dx / |dx|^2``, ``N = F(y) - F(x) - grad F(xbar) . dx``
+      (J. Nonlinear Sci. 6 (1996) 449); symmetric, order 2;
+    * AVF: ``sum_k w_k grad F(x + s_k dx)`` (Gauss-Legendre nodes ``s_k`` and weights ``w_k`` in ``coeffs``),
+      projected onto the identity as Gonzalez's (Quispel & McLaren, J. Phys. A 41 (2008) 045206); order 2;
+    * Itoh-Abe: coordinate increments in the order 1..n (J. Comput. Phys. 76 (1988) 85); order 1;
+    * symmetrized Itoh-Abe: Itoh-Abe averaged over the n! orders (n <= ``MAX_SYMMETRIZED_DIM``); order 2.
+
+    ``f_old`` is F at ``x`` (for H: the energy anchor, so the root lands on the anchor's level);
+    ``scratch`` holds five vectors (the increment, two points, the coordinate order and Heap's counters).
+    Returns the round-off bound of the quotients.
+    """
+    n = x.shape[0]
+    dx, mid, vertex = scratch[0], scratch[1], scratch[2]
+    for i in range(n):
+        dx[i] = y[i] - x[i]
+    out[:] = 0.0
+    if kind == GONZALEZ:
+        for i in range(n):
+            mid[i] = 0.5 * (x[i] + y[i])
+        copy_into(out, grad_F(mid, params))
+    elif kind == AVF:
+        nodes = coeffs.shape[0] // 2
+        for k in range(nodes):
+            for i in range(n):
+                mid[i] = x[i] + coeffs[k] * dx[i]
+            g = grad_F(mid, params)
+            w = coeffs[nodes + k]
+            for i in range(n):
+                out[i] += w * g[i]
+    elif kind == ITOH_ABE:
+        order = scratch[3]
+        for i in range(n):
+            order[i] = i
+        _itoh_abe_order(out, F, grad_F, params, x, y, f_old, f_new, order, vertex, mid, 1.0)
+    elif kind == SYMMETRIZED_ITOH_ABE:
+        _symmetrized(out, F, grad_F, params, x, y, f_old, f_new, vertex, mid, scratch[3], scratch[4])
+    return _project_identity(out, f_old, f_new, dx, y, gain, constant)
+
+
+@inner
+def _symmetrized(out, F, grad_F, params, x, y, f_old, f_new, vertex, mid, order, counters):
+    """Itoh-Abe's gradient averaged over every order of the coordinates (Heap's algorithm, n! orders;
+    ``order`` and ``counters`` are scratch vectors)."""
+    n = x.shape[0]
+    for i in range(n):
+        order[i] = i
+        counters[i] = 0.0
+    total = 1
+    for k in range(2, n + 1):
+        total *= k
+    weight = 1.0 / total
+    _itoh_abe_order(out, F, grad_F, params, x, y, f_old, f_new, order, vertex, mid, weight)
+    i = 1
+    while i < n:
+        if counters[i] < i:
+            j = int(counters[i]) if i % 2 == 1 else 0
+            order[j], order[i] = order[i], order[j]
+            _itoh_abe_order(out, F, grad_F, params, x, y, f_old, f_new, order, vertex, mid, weight)
+            counters[i] += 1
+            i = 1
+        else:
+            counters[i] = 0
+            i += 1
+
+
+# -- the discrete field ------------------------------------------------------------------------------------------
+@inner
+def discrete_field_n(kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, y, gain_h, gain_s, work):
+    """``F(x, y)`` of the module docstring into the workspace's ``V_F``; returns ``(H(y), S(y), noise, |P|, |M|)``
+    with ``noise`` the round-off bound of the discrete gradients' quotients and the infinity norms of ``P(xbar)``
+    and ``M(xbar)`` (0 where not evaluated), from which the next iterate's gains are taken (``gains``)."""
+    n = x.shape[0]
+    p = model.params
+    dgh, dgs, F = vector(work, V_DGH, n), vector(work, V_DGS, n), vector(work, V_F, n)
+    mid, a, b = vector(work, V_MID, n), vector(work, V_A, n), vector(work, V_B, n)
+    scratch = (a, b, vector(work, V_C, n), vector(work, V_K1, n), vector(work, V_K2, n))
+    H_y, S_y = model.H(y, p), model.S(y, p)
+    noise = discrete_gradient_n(
+        kind, coeffs, model.H, model.grad_H, p, x, y, H_x, H_y, gain_h, model.origin[0], dgh, scratch
+    )
+    with_s = eps != 0.0 or hamiltonian
+    if with_s:
+        noise += discrete_gradient_n(
+            kind, coeffs, model.S, model.grad_S, p, x, y, S_x, S_y, gain_s, model.origin[1], dgs, scratch
+        )
+    for i in range(n):
+        mid[i] = 0.5 * (x[i] + y[i])
+    F[:] = 0.0
+    norm_p, norm_m = 0.0, 0.0
+    if hamiltonian:  # Pi_S P(xbar) Pi_S dgH
+        remove_along(copy_into(a, dgh), dgs)
+        m = model.P(mid, p)
+        matvec_into(F, m, a)
+        norm_p = norm_rows(m)
+        remove_along(F, dgs)
+    if eps != 0.0:
+        if model.metric == PAPER_METRIC:  # (dgH . dgS) dgH - |dgH|^2 dgS = -|dgH|^2 Pi_H dgS
+            c, d = dot(dgh, dgs), dot(dgh, dgh)
+            for i in range(n):
+                F[i] += eps * (c * dgh[i] - d * dgs[i])
+        else:  # Pi_H M(xbar) Pi_H dgS
+            remove_along(copy_into(a, dgs), dgh)
+            m = model.M(mid, p)
+            matvec_into(b, m, a)
+            norm_m = norm_rows(m)
+            remove_along(b, dgh)
+            for i in range(n):
+                F[i] += eps * b[i]
+    remove_along(F, dgh)  # F . dgH = 0 holds identically; this removes the rounding of the products along dgH
+    return H_y, S_y, noise, norm_p, norm_m
+
+
+@inner
+def gains(model, eps, h, dgh, dgs, norm_p, norm_m):
+    """How far the step moves per unit change of ``dgH`` and of ``dgS`` (bounds of ``|h| |dF/d dgF|``), which
+    carry the quotients' round-off into the step (``_project_identity``): ``|h| (|P| + 2 eps |dgH| |dgS|)`` and
+    ``|h| (|P| |dgH| / |dgS| + eps |dgH|^2)`` for the paper's metric (the projection turns with dgS), ``|M|``
+    in place of ``|dgH| |dgS|`` and ``|dgH|^2`` for the user's."""
+    a, b = norm_inf(dgh), norm_inf(dgs)
+    if model.metric == PAPER_METRIC:
+        return abs(h) * (norm_p + 2.0 * eps * a * b), abs(h) * (norm_p * a / b + eps * a * a)
+    return abs(h) * (norm_p + eps * norm_m * b / a), abs(h) * (norm_p * a / b + eps * norm_m)
+
+
+# -- the level corrections ---------------------------------------------------------------------------------------
+@inner
+def to_level(model, y, value, target, energy, d, before, tolerance):
+    """Move ``y`` (in place) towards ``F(y) = target`` within ``tolerance`` (scalar Newton, at most 3 steps)
+    along ``d = Pi_G grad F(y)``: F = H and G = S where ``energy`` (S unchanged to first order), else F = S and
+    G = H.  Where grad F and grad G are nearly parallel (an equilibrium: ``|Pi_G grad F|^2 < PARALLEL
+    |grad F|^2``) that direction is ill-conditioned and ``d = grad F``, whose move, of the size of the level's
+    round-off, changes G by round-off too.  A move that does not bring F closer to the target is undone.
+    ``d`` and ``before`` are scratch vectors.  Returns ``(F(y), evaluations)``."""
+    p = model.params
+    evaluations = 0
+    for _ in range(3):
+        if abs(value - target) <= tolerance:
+            break
+        g = model.grad_H(y, p) if energy else model.grad_S(y, p)
+        o = model.grad_S(y, p) if energy else model.grad_H(y, p)
+        remove_along(copy_into(d, g), o)
+        slope, full = dot(g, d), dot(g, g)
+        if not slope >= PARALLEL * full:
+            copy_into(d, g)
+            slope = full
+        if not (slope > 0.0) or not np.isfinite(slope):
+            break
+        lam = (target - value) / slope
+        copy_into(before, y)
+        for i in range(y.shape[0]):
+            y[i] += lam * d[i]
+        moved = model.H(y, p) if energy else model.S(y, p)
+        evaluations += 1
+        if not abs(moved - target) < abs(value - target):
+            copy_into(y, before)
+            break
+        value = moved
+    return value, evaluations
+
+
+# -- the Jacobian and the predictor ------------------------------------------------------------------------------
+@inner
+def refresh(model, eps, hamiltonian, x, h, work):
+    """``D xi(x)`` by differences into the workspace and ``A = I - h/2 D xi`` factored; returns False where
+    ``A`` is singular.  Leaves ``xi(x)`` in ``V_K1``."""
+    n = x.shape[0]
+    f0 = field_into(vector(work, V_K1, n), model, eps, hamiltonian, x)
+    jac = jacobian_matrix(work, n)
+    jacobian_into(jac, model, eps, hamiltonian, x, f0, vector(work, V_MID, n), vector(work, V_A, n))
+    return factor(work, n, h)
+
+
+@inner
+def factor(work, n, h):
+    jac, lu = jacobian_matrix(work, n), lu_matrix(work, n)
+    for i in range(n):
+        for j in range(n):
+            lu[i, j] = -0.5 * h * jac[i, j]
+        lu[i, i] += 1.0
+    ok = lu_factor(lu, vector(work, V_PIVOTS, n))
+    work[WN_FACTORED] = 1.0 if ok else 0.0
+    work[WN_H] = h
+    return ok
+
+
+@inner
+def predict(work, n, y, x):
+    """``y = x +`` the increment extrapolated from the last (up to) three: error O(h^2), O(h^3), O(h^4)."""
+    d1, d2, d3 = vector(work, V_DX1, n), vector(work, V_DX2, n), vector(work, V_DX3, n)
+    k = work[WN_HISTORY]
+    for i in range(n):
+        if k >= 3.0:
+            y[i] = x[i] + 3.0 * (d1[i] - d2[i]) + d3[i]
+        elif k >= 2.0:
+            y[i] = x[i] + 2.0 * d1[i] - d2[i]
+        else:
+            y[i] = x[i] + d1[i]
+
+
+@inner
+def remember_n(work, n, y, x, h):
+    same = work[WN_H] == h and work[WN_HISTORY] > 0.0
+    d1, d2, d3 = vector(work, V_DX1, n), vector(work, V_DX2, n), vector(work, V_DX3, n)
+    for i in range(n):
+        d3[i] = d2[i]
+        d2[i] = d1[i]
+        d1[i] = y[i] - x[i]
+    work[WN_HISTORY] = min(3.0, work[WN_HISTORY] + 1.0) if same else 1.0
+    work[WN_H] = h
+
+
+# -- the step ----------------------------------------------------------------------------------------------------
+@inner
+def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, work):
+    """Simplified Newton from the workspace's ``V_NEW`` (the start) with its factors; returns
+    ``(status, H(y), S(y), iterations, evaluations, first contraction rate, culprit)``."""
+    n = x.shape[0]
+    y, F, r = vector(work, V_NEW, n), vector(work, V_F, n), vector(work, V_R, n)
+    lu, pivots = lu_matrix(work, n), vector(work, V_PIVOTS, n)
+    previous, best, first_theta = np.inf, np.inf, 0.0
+    gain_h, gain_s = np.inf, np.inf  # the first iterate takes the gradients uncorrected
+    H_y, S_y = np.nan, np.nan
+    for iteration in range(1, max_iter + 1):
+        H_y, S_y, noise, norm_p, norm_m = discrete_field_n(
+            kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, y, gain_h, gain_s, work
+        )
+        if not (all_finite(F) and np.isfinite(H_y) and np.isfinite(S_y)):
+            return NON_FINITE, H_y, S_y, iteration, iteration, np.inf, non_finite_culprit_n(model, y, hamiltonian)
+        gain_h, gain_s = gains(model, eps, h, vector(work, V_DGH, n), vector(work, V_DGS, n), norm_p, norm_m)
+        for i in range(n):
+            r[i] = (y[i] - x[i]) - h * F[i]
+        lu_solve(lu, pivots, r)
+        error = norm_inf(r)
+        increment = 0.0
+        for i in range(n):
+            increment = max(increment, abs(y[i] - x[i]))
+        resolution = EPS * (increment + abs(h) * norm_inf(F))
+        for i in range(n):
+            y[i] -= r[i]
+        theta = error / previous
+        if iteration == 2 and previous > 64.0 * resolution:  # a rate measured above round-off
+            first_theta = theta
+        if not np.isfinite(error) or error > 1e3 * (norm_inf(x) + increment + 1.0):
+            break
+        contracting = iteration > 1 and theta < 0.5 and theta / (1.0 - theta) * error <= resolution
+        converged = error <= 4.0 * resolution or contracting
+        floor = 64.0 * resolution + 16.0 * abs(h) * noise
+        stalled = error >= 0.5 * best and (error <= floor or error <= SQRT_EPS * (norm_inf(x) + increment))
+        if converged or stalled or error == 0.0:
+            p = model.params
+            return OK, model.H(y, p), model.S(y, p), iteration, iteration + 1, first_theta, UNKNOWN
+        best = min(best, error)
+        previous = error
+    return NEWTON_FAILED, H_y, S_y, max_iter, max_iter, previous, UNKNOWN
+
+
+@inner
+def _start(model, eps, hamiltonian, x, h, work):
+    """A fresh Jacobian at ``x`` and the linearly implicit start ``y = x + A^-1 h xi(x)``; False where A is
+    singular (the start is then the explicit Euler step)."""
+    n = x.shape[0]
+    ok = refresh(model, eps, hamiltonian, x, h, work)
+    y, f0 = vector(work, V_NEW, n), vector(work, V_K1, n)
+    for i in range(n):
+        y[i] = h * f0[i]
+    if ok:
+        lu_solve(lu_matrix(work, n), vector(work, V_PIVOTS, n), y)
+    for i in range(n):
+        y[i] += x[i]
+    return ok
+
+
+@hot
+def discrete_gradient_step_n(kind, max_iter, coeffs, model, eps, hamiltonian, x, comp, H_x, S_x, h, work):
+    """One step of the module docstring from ``x`` to the workspace's ``V_NEW``: a ``layout.StepResult`` whose
+    ``x`` is that view (the loop copies it), ``comp`` passed through (no compensated summation in R^n).
+
+    ``H_x`` is the energy anchor (H(x0)), ``S_x`` S(x).  The usual step starts from the extrapolated
+    increment with the kept factors; without a history, with another ``h``, or where that start fails, from a
+    fresh Jacobian and the linearly implicit start.
+    """
+    n = x.shape[0]
+    p = model.params
+    y = vector(work, V_NEW, n)
+    evaluations = 0
+    fresh = not (work[WN_HISTORY] > 0.0 and work[WN_H] == h and work[WN_FACTORED] > 0.0)
+    status, H_y, S_y, iterations, theta, culprit = NEWTON_FAILED, np.nan, np.nan, 0, 0.0, UNKNOWN
+    for attempt in range(2):
+        if attempt == 1 and fresh:
+            break
+        if fresh or attempt == 1:
+            _start(model, eps, hamiltonian, x, h, work)
+            evaluations += n + 1
+            fresh = True
+        else:
+            predict(work, n, y, x)
+        status, H_y, S_y, it, ev, theta, culprit = _newton(
+            kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, work
+        )
+        iterations += it
+        evaluations += ev
+        if status != NEWTON_FAILED:
+            break
+    if status != OK:
+        work[WN_HISTORY] = 0.0
+        return StepResult(y, comp, H_y, S_y, status, iterations, evaluations, theta, culprit)
+    # exact under a stopped solve: back onto H = H_x, and S not against its direction
+    d, before = vector(work, V_R, n), vector(work, V_C, n)
+    terms_h = term_scale_n(H_x, H_y, model.grad_H(y, p), y, model.origin[0])
+    H_y, ev = to_level(model, y, H_y, H_x, True, d, before, EPS * terms_h)
+    evaluations += ev
+    against = -model.direction * np.sign(h)  # > 0: S moved against its direction
+    for _ in range(CORRECTION_ROUNDS):
+        S_y = model.S(y, p)
+        terms_s = term_scale_n(S_x, S_y, model.grad_S(y, p), y, model.origin[1])
+        if eps == 0.0 and hamiltonian:  # no dissipation: S is a Casimir, kept like H
+            if abs(S_y - S_x) <= EPS * terms_s:
+                break
+        elif not against * (S_y - S_x) > 0.5 * EPS * terms_s:
+            break
+        S_y, ev = to_level(model, y, S_y, S_x, False, d, before, 0.5 * EPS * terms_s)
+        H_y, ev2 = to_level(model, y, model.H(y, p), H_x, True, d, before, EPS * terms_h)
+        evaluations += ev + ev2 + 1
+    S_y = model.S(y, p)
+    terms_s = term_scale_n(S_x, S_y, model.grad_S(y, p), y, model.origin[1])
+    s_rise = against * (S_y - S_x) if eps != 0.0 or not hamiltonian else abs(S_y - S_x)
+    if not (abs(H_y - H_x) <= ACCEPT_ULPS * EPS * terms_h and s_rise <= ACCEPT_S_ULPS * EPS * terms_s):
+        increment = 0.0
+        for i in range(n):
+            increment = max(increment, abs(y[i] - x[i]))
+        if not increment <= REST * norm_inf(x):
+            work[WN_HISTORY] = 0.0
+            return StepResult(y, comp, H_y, S_y, NEWTON_FAILED, iterations, evaluations, theta, UNKNOWN)
+        # at rest: near an equilibrium grad H and grad S are parallel, the level sets of H and S touch, and no
+        # state within round-off of the root keeps H with S not rising; x itself does (it was accepted)
+        copy_into(y, x)
+        H_y, S_y = model.H(y, p), S_x
+    remember_n(work, n, y, x, h)
+    if theta > THETA_REFRESH:
+        work[WN_FACTORED] = 0.0  # the factors have gone stale: fresh ones next step
+    return StepResult(y, comp, H_y, S_y, OK, iterations, evaluations, theta, UNKNOWN)
+
+
+@hot
+def rk4_step_n(model, eps, hamiltonian, x, comp, h, work):
+    """The classical Runge-Kutta step (order 4) into the workspace's ``V_NEW``; H and S are not evaluated."""
+    n = x.shape[0]
+    k1, k2, k3, k4 = vector(work, V_K1, n), vector(work, V_K2, n), vector(work, V_K3, n), vector(work, V_K4, n)
+    stage, y = vector(work, V_A, n), vector(work, V_NEW, n)
+    field_into(k1, model, eps, hamiltonian, x)
+    field_into(k2, model, eps, hamiltonian, axpy_into(stage, 0.5 * h, k1, x))
+    field_into(k3, model, eps, hamiltonian, axpy_into(stage, 0.5 * h, k2, x))
+    field_into(k4, model, eps, hamiltonian, axpy_into(stage, h, k3, x))
+    for i in range(n):
+        y[i] = x[i] + (h / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+    return StepResult(y, comp, np.nan, np.nan, OK, 0, 4, 0.0, UNKNOWN)

@@ -1,0 +1,158 @@
+"""Vectors of length n in preallocated buffers, and a dense LU solve, for the kernels in R^n.
+
+The R^n kernels hold states and their intermediates in slices of one
+workspace array (``step_n.vector``), never allocating per step; these are the
+loops they share.  ``lu_factor``/``lu_solve`` are Gaussian elimination with
+partial pivoting (Golub & Van Loan, *Matrix Computations*, section 3.4),
+written out so that a small system pays no call into LAPACK
+(docs/engine_rn.md, "Solving the step").
+"""
+
+import numpy as np
+
+from .jit import inner
+
+
+@inner
+def dot(u, v):
+    s = 0.0
+    for i in range(u.shape[0]):
+        s += u[i] * v[i]
+    return s
+
+
+@inner
+def abs_dot(u, v):
+    """``sum_i |u_i v_i|``: the size of the terms of ``u . v``."""
+    s = 0.0
+    for i in range(u.shape[0]):
+        s += abs(u[i] * v[i])
+    return s
+
+
+@inner
+def norm_inf(u):
+    m = 0.0
+    for i in range(u.shape[0]):
+        a = abs(u[i])
+        if not a <= m:  # NaN propagates
+            m = a
+    return m
+
+
+@inner
+def all_finite(u):
+    for i in range(u.shape[0]):
+        if not np.isfinite(u[i]):
+            return False
+    return True
+
+
+@inner
+def copy_into(out, u):
+    for i in range(u.shape[0]):
+        out[i] = u[i]
+    return out
+
+
+@inner
+def axpy_into(out, a, u, v):
+    """``out = a u + v`` (``out`` may be ``v``)."""
+    for i in range(u.shape[0]):
+        out[i] = a * u[i] + v[i]
+    return out
+
+
+@inner
+def remove_along(u, direction):
+    """``u - (u . d / d . d) d`` in place: ``u`` without its component along ``d`` (nothing where ``d = 0``).
+
+    ``d`` is divided by its largest component first, so that ``d . d`` neither
+    underflows nor overflows however small or large ``d`` is.
+    """
+    size = norm_inf(direction)
+    if size == 0.0 or not np.isfinite(size):
+        return u
+    dd, ud = 0.0, 0.0
+    for i in range(u.shape[0]):
+        e = direction[i] / size
+        dd += e * e
+        ud += u[i] * e
+    c = ud / dd
+    for i in range(u.shape[0]):
+        u[i] -= c * (direction[i] / size)
+    return u
+
+
+@inner
+def norm_rows(m):
+    """The infinity norm of a matrix: its largest absolute row sum."""
+    largest = 0.0
+    for i in range(m.shape[0]):
+        s = 0.0
+        for j in range(m.shape[1]):
+            s += abs(m[i, j])
+        if not s <= largest:
+            largest = s
+    return largest
+
+
+@inner
+def matvec_into(out, m, v):
+    for i in range(m.shape[0]):
+        s = 0.0
+        for j in range(m.shape[1]):
+            s += m[i, j] * v[j]
+        out[i] = s
+    return out
+
+
+@inner
+def lu_factor(a, pivots):
+    """Factor ``a`` (n, n) in place as ``P a = L U`` (partial pivoting); ``pivots`` (n floats) records the rows.
+
+    Returns False where a pivot is zero or not finite (the matrix is singular to working precision).
+    """
+    n = a.shape[0]
+    for k in range(n):
+        p = k
+        big = abs(a[k, k])
+        for i in range(k + 1, n):
+            if abs(a[i, k]) > big:
+                big = abs(a[i, k])
+                p = i
+        pivots[k] = p
+        if not (big > 0.0 and np.isfinite(big)):
+            return False
+        if p != k:
+            for j in range(n):
+                a[k, j], a[p, j] = a[p, j], a[k, j]
+        inverse = 1.0 / a[k, k]
+        for i in range(k + 1, n):
+            a[i, k] *= inverse
+            f = a[i, k]
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    a[i, j] -= f * a[k, j]
+    return True
+
+
+@inner
+def lu_solve(lu, pivots, b):
+    """Solve ``a x = b`` in place (``b`` becomes x) from ``lu_factor``'s factors."""
+    n = lu.shape[0]
+    for k in range(n):
+        p = int(pivots[k])
+        if p != k:
+            b[k], b[p] = b[p], b[k]
+    for i in range(n):
+        s = b[i]
+        for j in range(i):
+            s -= lu[i, j] * b[j]
+        b[i] = s
+    for i in range(n - 1, -1, -1):
+        s = b[i]
+        for j in range(i + 1, n):
+            s -= lu[i, j] * b[j]
+        b[i] = s / lu[i, i]
+    return b
