@@ -252,7 +252,7 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
 
     def __repr__(self) -> str:
         effects = "" if self.hamiltonian else ", hamiltonian=False"
-        metric = "" if self.functions.M is None else ", metric=user"
+        metric = "" if self.functions.M is None or self.direction > 0 else ", metric=user"
         return (
             f"{type(self).__name__}(name={self.name!r}, dim={self.dim}, eps={self.eps!r}{metric}{effects}, "
             f"params={_shown_params(self._params)})"
