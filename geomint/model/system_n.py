@@ -109,7 +109,7 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
     >>> @numba.njit
     ... def P(x, p): return np.array([[0.0, 1.0, 0.0, 0.0], [-1.0, 0.0, 0.0, 0.0], [0.0] * 4, [0.0] * 4])
     >>> system = geomint.MetriplecticSystem(H=H, grad_H=grad_H, S=S, grad_S=grad_S, P=P, dim=4)
-    >>> float(system.dS_dt([0.6, 0.0, 0.0, 0.8]).round(3))
+    >>> round(system.dS_dt([0.6, 0.0, 0.0, 0.8]), 3)
     -0.23
     """
 
