@@ -601,6 +601,20 @@ def test_euler_P_grad_H_is_the_convolution(seed, N, galerkin):
     np.testing.assert_allclose(system.xi_P(x), direct, rtol=0, atol=64 * EPS * (1.0 + np.abs(direct).max()) * N * N)
 
 
+@pytest.mark.parametrize("N", [3, 5])
+def test_zeitlins_P_satisfies_Jacobi_and_galerkins_does_not(N):
+    """P is linear in x, so its derivative along e_l is P(e_l); the cyclic sum of ``P_li d_l P_jk``."""
+    n = N * N - 1
+    x = np.random.default_rng(N).normal(size=n)
+    residuals = []
+    for system in (euler_zeitlin(N), euler_galerkin(N)):
+        P, dP = system.P(x), system.P(np.eye(n))
+        J = np.einsum("li,ljk->ijk", P, dP)
+        cyclic = J + np.einsum("ijk->jki", J) + np.einsum("ijk->kij", J)
+        residuals.append(np.abs(cyclic).max() / np.abs(J).max())
+    assert residuals[0] < 1e-14 and residuals[1] > 0.1
+
+
 def test_the_two_truncations_differ_and_agree_where_they_should():
     x = np.random.default_rng(9).normal(size=24)
     zeitlin, galerkin = euler_zeitlin(5), euler_galerkin(5)
@@ -618,6 +632,16 @@ def test_euler_data_give_DESIGN_RNs_H0_and_S0(make, N):
     F = euler_coefficients(x0, N)
     assert F[1, 0] == 1.0 and F[1, 1] == 0.5 and F[2, 1] == 0.25j and F[-2, -1] == -0.25j
     assert system.dS_dt(x0) < 0.0
+
+
+def test_the_dissipative_part_is_the_shell_formula():
+    """``g grad S = 8 (H / |k|^2 - K) omega_k``, ``K = sum_half |omega_k|^2 / |k|^4``: the rate 8 eps H_0 of the
+    docstring (the shell |k|^2 = 2 near the end)."""
+    system = euler_galerkin(7)
+    x = np.random.default_rng(10).normal(size=48)
+    shells = np.repeat(np.sum(euler_modes(7) ** 2, axis=1), 2)
+    K = np.sum(x * x / shells**2)
+    np.testing.assert_allclose(system.xi_g(x), 8 * (system.H(x) / shells - K) * x, rtol=1e-12, atol=1e-12)
 
 
 def test_the_lowest_shell_is_where_S_equals_H_and_dissipation_stops():
