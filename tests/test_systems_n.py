@@ -737,3 +737,21 @@ def test_gas_containers_default_samples_stay_in_the_domain():
             dim=4,
             samples=[[-0.5, 0.0, 0.0, 0.0], [2.5, 0.0, 0.0, 0.0]],
         )
+
+
+def test_the_flows_reach_DESIGN_RNs_limits():
+    """The model's field integrated by scipy (no geomint kernel): S_inf = E_0 + N for the pendula, 3 ln(E_0 / 2)
+    for the gas containers, H_0 for Euler's selective decay."""
+    from scipy.integrate import solve_ivp
+
+    def end(system, x0, t):
+        return solve_ivp(lambda _, x: system.xi(x), (0.0, t), x0, rtol=1e-10, atol=1e-12, method="LSODA").y[:, -1]
+
+    pendula = damped_pendula(3, gamma=0.5)
+    x0 = np.array([0.1, 2.0, -1.0, 0.5, 0.0, -0.3, 0.2])
+    assert end(pendula, x0, 100.0)[-1] == pytest.approx(pendula.E(x0) + 3, rel=1e-8)
+    gas = gas_containers()
+    x0 = np.array([0.7, 0.3, 0.2, -0.4])
+    np.testing.assert_allclose(end(gas, x0, 200.0), gas_containers_limit(gas.E(x0)), atol=1e-7)
+    euler, x0 = euler_zeitlin(5), euler_initial_state(5)
+    assert euler.S(end(euler, x0, 10.0)) == pytest.approx(1.1375, rel=1e-8)
