@@ -6,10 +6,21 @@ and ``grad S`` against central differences of step 1e-6, ``grad S x J = 0``
 differences), ``P = -P^T`` when P is given as a matrix; each within 1e-5
 relative.  A declared exact flow (``exact_flows``) is checked the same way.
 A violation raises ``ValueError`` naming the function, the rule and the point.
+
+In R^n (``check_structure_n``) the points are the system's samples (default
+six uniform in ``[-1, 1]^n``, a seed per n, or the user's ``samples``):
+gradients along the axes (n <= 32) or 32 random directions against central
+differences, the same 1e-5 relative; P skew and a user's metric symmetric to
+1e-10 of their largest entry; ``P grad S = 0`` and ``G grad H = 0`` to 1e-5 of
+``max_i sum_j |A_ij| |v_j|``; the metric semidefinite of the form's sign, its
+wrong-signed eigenvalues within 1e-8 of the largest |eigenvalue|.  Jacobi is not
+checked in R^n (Galerkin truncations are not Jacobi, and the field needs only
+skewness and the Casimir).
 """
 
 from __future__ import annotations
 
+import numbers
 from typing import Any
 
 import numpy as np
@@ -166,3 +177,163 @@ def check_exact_flows(system: Any) -> None:  # a MetriplecticSystem (model.syste
     """Each exact flow ``system.exact_flows`` declares holds at the sample points."""
     for flow, data in system.exact_flows.items():
         _EXACT_FLOW_CHECKS[flow](system, data)
+
+
+# -- systems in R^n ------------------------------------------------------------------------
+#: directional derivatives checked per sample point: the coordinate axes up to this n, random directions above
+_DIRECTIONS = 32
+#: skew and symmetric matrices to this fraction of their largest entry (sums of n terms round)
+_MATRIX_RTOL = 1e-10
+#: a semidefinite metric's eigenvalues of the wrong sign to this fraction of its largest |eigenvalue|
+_SIGN_RTOL = 1e-8
+
+
+def check_dim(dim: Any) -> int:
+    """``dim`` as an int >= 2, or a TypeError/ValueError naming it."""
+    if isinstance(dim, (bool, np.bool_)) or not isinstance(dim, numbers.Integral):
+        raise TypeError(f"`dim` must be an integer >= 2 (the dimension n of the state); got {dim!r}.")
+    if dim < 2:
+        raise ValueError(f"`dim` must be an integer >= 2 (the dimension n of the state); got {dim!r}.")
+    return int(dim)
+
+
+def samples_n(dim: int, count: int = 6) -> np.ndarray:
+    """``count`` sample points drawn uniformly from ``[-1, 1]^dim`` (a fixed seed per dimension)."""
+    return np.random.default_rng([20261121, dim]).uniform(-1.0, 1.0, size=(count, dim))
+
+
+def check_samples(samples: Any, dim: int) -> np.ndarray:
+    """``samples`` (None: ``samples_n(dim)``) as a contiguous (k, dim) float64 array, k >= 1, all finite, or a
+    TypeError/ValueError naming it."""
+    if samples is None:
+        return samples_n(dim)
+    try:
+        array = np.array(samples, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"`samples` must be an array (k, n) of states in the domain; got {samples!r}.") from None
+    if array.ndim == 1 and array.size == dim:
+        array = array[None, :]
+    if array.ndim != 2 or array.shape[1] != dim or array.shape[0] == 0:
+        raise ValueError(f"`samples` must have shape (k, n) with k >= 1 and n = dim = {dim}; got shape {array.shape}.")
+    if not np.all(np.isfinite(array)):
+        raise ValueError("`samples` must be finite states.")
+    return np.ascontiguousarray(array)
+
+
+def shown(x: np.ndarray) -> str:
+    """A state for a message: all its entries up to n = 8, else the first and last few and n."""
+    x = np.asarray(x)
+    return str(x.tolist()) if x.size <= 8 else f"{np.array2string(x, threshold=8, edgeitems=3)} (n = {x.size})"
+
+
+def check_structure_n(system: Any) -> None:  # a MetriplecticSystemN (model.system_n imports this module)
+    """The structure of a system in R^n at its sample points (``system._samples``): gradients against central
+    differences, P skew, ``P grad S = 0``, and a user's metric symmetric, semidefinite of the right sign
+    (Fish: G <= 0; GENERIC: M >= 0) and annihilating ``grad H``.  Jacobi is not checked: the field needs only
+    skewness and the Casimir (a Galerkin truncation of 2-D Euler is skew and degenerate but not Jacobi).
+
+    Each violation raises ``ValueError`` naming the argument (as the user wrote it: ``grad_E``, ``L``, ``M``
+    for GENERIC), the rule and the residual against the size of its terms.
+    """
+    try:
+        _check_samples_n(system)
+    except _user_errors.UserFunctionError as error:
+        raise _user_errors.UserFunctionError(
+            error.function,
+            error.x,
+            error.__cause__,
+            "The structure checks evaluate the functions at sample points (default: uniform in [-1, 1]^n) and "
+            "1e-6 around them: give `samples=` (an array (k, n) of states in the domain), return NaN where a "
+            "function is undefined, or pass check=False.",
+        ) from error.__cause__
+
+
+def _check_samples_n(system):
+    names, n = system._names, system.dim
+    rows = [system._evaluate_one(x, with_matrices=True) for x in system._samples]
+    finite = [all(np.all(np.isfinite(v)) for v in row if v is not None) for row in rows]
+    if not any(finite):
+        raise ValueError(
+            f"`samples`: the functions are not finite at any of the {len(rows)} sample points (e.g. x = "
+            f"{shown(system._samples[0])}); give `samples=` (an array (k, n) of states where they are defined) or "
+            "pass check=False."
+        )
+    points = [x for x, ok in zip(system._samples, finite) if ok]
+    rows = [row for row, ok in zip(rows, finite) if ok]
+    directions = np.eye(n) if n <= _DIRECTIONS else _unit_directions(n)
+    step = 1e-6
+    for role, value_role, index in (("grad_H", "H", 0), ("grad_S", "S", 1)):
+        for x, row in zip(points, rows):
+            value, grad = row[index], row[index + 2]
+            fd = np.array(
+                [
+                    (system._call(value_role, x + step * v) - system._call(value_role, x - step * v)) / (2 * step)
+                    for v in directions
+                ]
+            )
+            along = directions @ grad
+            # central differences carry round-off ~ eps |F| / step: allow 1e-7 |F| besides 1e-5 relative
+            size = max(np.abs(along).max(), np.abs(fd).max()) + 1e-2 * abs(value)
+            worst = int(np.argmax(np.abs(along - fd)))
+            if abs(along[worst] - fd[worst]) > 1e-5 * (size + 1e-8):
+                where = f"e_{worst}" if n <= _DIRECTIONS else f"a random unit vector (#{worst})"
+                raise ValueError(
+                    f"`{names[role]}` must match finite differences of {names[value_role]}; at x = {shown(x)} the "
+                    f"derivative along {where} is {along[worst]!r} by `{names[role]}` but {fd[worst]!r} by finite "
+                    f"differences (terms of size {size:.3g}). Pass check=False to skip this check."
+                )
+    for x, (_, _, grad_H, grad_S, P, M) in zip(points, rows):
+        _require_matrix(names["P"], x, P, -1, "be skew-symmetric (P = -P^T)")
+        _require_null(names["P"], x, P, grad_S, f"satisfy {names['P']} grad S = 0 (S must be a Casimir of it)")
+        if M is None:
+            continue
+        _require_matrix(names["M"], x, M, +1, "be symmetric")
+        _require_sign(names["M"], x, M, system.direction)
+        letter = "G" if names["M"] == "metric" else names["M"]
+        rule = f"satisfy {letter} grad {names['H']} = 0 ({names['H']} must be conserved)"
+        _require_null(names["M"], x, M, grad_H, rule)
+
+
+def _unit_directions(n):
+    d = np.random.default_rng([20261122, n]).normal(size=(_DIRECTIONS, n))
+    return d / np.linalg.norm(d, axis=1)[:, None]
+
+
+def _require_matrix(name, x, A, sign, rule):
+    """``A = sign A^T`` to ``_MATRIX_RTOL`` of its largest entry."""
+    residual = np.abs(A - sign * A.T).max()
+    size = np.abs(A).max()
+    if residual > _MATRIX_RTOL * size:
+        i, j = np.unravel_index(int(np.argmax(np.abs(A - sign * A.T))), A.shape)
+        raise ValueError(
+            f"`{name}` must {rule}; at x = {shown(x)} entry [{i}, {j}] is {A[i, j]!r} and [{j}, {i}] is "
+            f"{A[j, i]!r} (largest |entry| {size:.3g}). Pass check=False to skip this check."
+        )
+
+
+def _require_null(name, x, A, v, rule):
+    """``A v = 0`` to 1e-5 of the size of its terms, ``max_i sum_j |A_ij| |v_j|`` (as the R^3 Casimir check)."""
+    residual = np.abs(A @ v)
+    size = (np.abs(A) @ np.abs(v)).max()
+    if residual.max() > 1e-5 * (size + 1e-8):
+        raise ValueError(
+            f"`{name}` must {rule}; at x = {shown(x)} the product has |entry| up to {residual.max()!r} "
+            f"(at index {int(np.argmax(residual))}; its terms have size {size:.3g}). Pass check=False to skip "
+            "this check."
+        )
+
+
+def _require_sign(name, x, A, direction):
+    """Fish form (``direction`` -1): A negative semidefinite; GENERIC (+1): positive semidefinite."""
+    eigenvalues = np.linalg.eigvalsh(0.5 * (A + A.T))
+    size = np.abs(eigenvalues).max() if eigenvalues.size else 0.0
+    wrong = eigenvalues.max() if direction < 0 else -eigenvalues.min()
+    if wrong > _SIGN_RTOL * size:
+        kind, sign, effect = (
+            ("negative", ">", "S would rise") if direction < 0 else ("positive", "<", "the entropy would fall")
+        )
+        value = eigenvalues.max() if direction < 0 else eigenvalues.min()
+        raise ValueError(
+            f"`{name}` must be {kind} semidefinite (a metric of the wrong sign: {effect}); at x = {shown(x)} it has "
+            f"the eigenvalue {value!r} {sign} 0 (largest |eigenvalue| {size:.3g}). Pass check=False to skip this check."
+        )

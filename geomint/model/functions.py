@@ -5,6 +5,9 @@ Every user function has the signature ``(x, params)`` with ``x`` and
 signature once, here; its return type decides the compiled kernel variant
 (3-tuples or arrays, an axial vector ``J`` or a matrix ``P``).  Under
 ``NUMBA_DISABLE_JIT=1`` plain Python functions are taken as they are.
+
+In R^n (``dim`` given) vectors are float64 arrays of length n and matrices
+(n, n) float64 arrays; the messages then show examples for any n.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ import numpy as np
 from numba.core.dispatcher import Dispatcher
 from numba.core.types.function_type import CompileResultWAP
 
+from .._cache import CACHE
 from .checks import SAMPLES
 
 if TYPE_CHECKING:
@@ -44,10 +48,28 @@ _EXAMPLES = {
 }
 
 
-def _how_to_jit(name):
-    """How to write the user function ``name`` (``H``, ``grad_H``, ``S``, ``grad_S``, ``J``, ``P``) for numba,
-    with an example of that very function."""
-    returns, body = _EXAMPLES.get(name, _EXAMPLES["grad_H"])
+_SQUARE = "np.zeros((x.shape[0], x.shape[0]))"
+#: the same for a system in R^n (``dim`` given): arrays of any length n, and GENERIC's names
+_EXAMPLES_N = {
+    "H": ("a float", "0.5 * np.sum(x * x)"),
+    "E": ("a float", "0.5 * np.sum(x * x)"),
+    "S": ("a float", "0.5 * x[0] * x[0]"),
+    "grad_H": ("a contiguous float64 array of length n", "x.copy()"),
+    "grad_E": ("a contiguous float64 array of length n", "x.copy()"),
+    "grad_S": ("a contiguous float64 array of length n", "np.zeros(x.shape[0])"),
+    "P": ("an (n, n) contiguous float64 array", _SQUARE),
+    "L": ("an (n, n) contiguous float64 array", _SQUARE),
+    "M": ("an (n, n) contiguous float64 array", _SQUARE),
+    "metric": ("an (n, n) contiguous float64 array", _SQUARE),
+}
+
+
+def _how_to_jit(name, dim=None):
+    """How to write the user function ``name`` (``H``, ``grad_H``, ``S``, ``grad_S``, ``J``, ``P``; in R^n,
+    ``dim`` given, also ``E``, ``grad_E``, ``L``, ``M``, ``metric``) for numba, with an example of that very
+    function."""
+    table = _EXAMPLES if dim is None else _EXAMPLES_N
+    returns, body = table.get(name, table["grad_H"])
     return (
         f"Write it as a numba function of (x, params), e.g.\n    @numba.njit\n    def {name}(x, params):\n"
         f"        return {body}\nwith x and params float64 arrays; `{name}` returns {returns}."
@@ -73,19 +95,19 @@ class ModelFunctions:
     poisson_form: str
 
 
-def _compiled_return_type(name, fn):
+def _compiled_return_type(name, fn, dim=None):
     if numba.config.DISABLE_JIT:  # pyright: ignore[reportPrivateImportUsage, reportAttributeAccessIssue]
         if not callable(fn):
             raise TypeError(f"`{name}` must be a function of (x, params); got {type(fn).__name__}.")
         return None
     if not isinstance(fn, Dispatcher):
-        raise TypeError(f"`{name}` must be a numba-jitted function; got {fn!r}. {_how_to_jit(name)}")
+        raise TypeError(f"`{name}` must be a numba-jitted function; got {fn!r}. {_how_to_jit(name, dim)}")
     try:
         fn.compile(_SIGNATURE)
     except Exception as exc:
         raise TypeError(
             f"`{name}` does not compile for (x, params) with float64 arrays: "
-            f"{type(exc).__name__}: {str(exc).splitlines()[0]}. {_how_to_jit(name)}"
+            f"{type(exc).__name__}: {str(exc).splitlines()[0]}. {_how_to_jit(name, dim)}"
         ) from exc
     return fn.overloads[_SIGNATURE].signature.return_type
 
@@ -99,11 +121,12 @@ def first_class(fn: Any) -> Any:
     return CompileResultWAP(fn.overloads[_SIGNATURE])
 
 
-def scalar_function(name: str, fn: Any) -> Any:
-    """``fn`` if it compiles for ``(x, params)`` and returns a float64, else a ``TypeError`` saying how to write it."""
-    rtype = _compiled_return_type(name, fn)
+def scalar_function(name: str, fn: Any, dim: int | None = None) -> Any:
+    """``fn`` if it compiles for ``(x, params)`` and returns a float64, else a ``TypeError`` saying how to write it
+    (for a system in R^dim when ``dim`` is given)."""
+    rtype = _compiled_return_type(name, fn, dim)
     if rtype is not None and rtype not in _SCALAR_TYPES:
-        raise TypeError(f"`{name}` must return a float64; it returns {rtype}. {_how_to_jit(name)}")
+        raise TypeError(f"`{name}` must return a float64; it returns {rtype}. {_how_to_jit(name, dim)}")
     return fn
 
 
@@ -121,11 +144,42 @@ def vector_function(name: str, fn: Any) -> str:
     return _VECTOR_FORMS[rtype]
 
 
-def matrix_function(name: str, fn: Any) -> None:
-    """A ``TypeError`` unless ``fn`` compiles for ``(x, params)`` and returns a contiguous float64 matrix."""
-    rtype = _compiled_return_type(name, fn)
+def array_function(name: str, fn: Any, dim: int) -> Any:
+    """``fn`` if it compiles for ``(x, params)`` and returns a contiguous float64 array (a vector in R^dim; its
+    length is probed by ``check_returned_shapes``), else a ``TypeError`` saying how to write it."""
+    rtype = _compiled_return_type(name, fn, dim)
+    if rtype is not None and rtype != _VECTOR:
+        raise TypeError(
+            f"`{name}` must return a contiguous float64 array of length n = {dim}; it returns {rtype}. "
+            f"{_how_to_jit(name, dim)}"
+        )
+    return fn
+
+
+def matrix_function(name: str, fn: Any, dim: int | None = None) -> Any:
+    """``fn`` if it compiles for ``(x, params)`` and returns a contiguous float64 matrix ((3, 3), or (dim, dim)
+    when ``dim`` is given), else a ``TypeError``."""
+    rtype = _compiled_return_type(name, fn, dim)
     if rtype is not None and rtype != _MATRIX_TYPE:
-        raise TypeError(f"`{name}` must return a (3, 3) contiguous float64 array; it returns {rtype}.")
+        shape = "a (3, 3)" if dim is None else f"an (n, n) = ({dim}, {dim})"
+        advice = "" if dim is None else f" {_how_to_jit(name, dim)}"
+        raise TypeError(f"`{name}` must return {shape} contiguous float64 array; it returns {rtype}.{advice}")
+    return fn
+
+
+def check_returned_shapes(
+    wanted: dict[str, tuple[Callable, tuple[int, ...]]], x: npt.NDArray[np.float64], params: npt.NDArray[np.float64]
+) -> None:
+    """Each function of ``wanted`` (``{name: (fn, shape)}``) returns an array of its shape at the state ``x``: an
+    array's type does not carry its length, and the kernels would read past a shorter one."""
+    for name, (fn, shape) in wanted.items():
+        try:
+            value = fn(x.copy(), params)
+        except Exception:  # noqa: BLE001 - undefined at this point is the structure check's business
+            continue
+        if np.shape(value) != shape:
+            shown = x.tolist() if x.size <= 8 else f"{np.array2string(x, threshold=8, precision=6)} (n = {x.size})"
+            raise ValueError(f"`{name}` must return shape {shape}; at x = {shown} it returned shape {np.shape(value)}.")
 
 
 def check_shapes(functions: ModelFunctions, params: npt.NDArray[np.float64]) -> None:
@@ -139,13 +193,27 @@ def check_shapes(functions: ModelFunctions, params: npt.NDArray[np.float64]) -> 
         functions.poisson,
         (3, 3) if functions.poisson_form == "matrix" else (3,),
     )
-    for name, (fn, shape) in wanted.items():
-        x = SAMPLES[0].copy()
-        try:
-            value = fn(x, params)
-        except Exception:  # noqa: BLE001 - undefined at this point is the structure check's business
-            continue
-        if np.shape(value) != shape:
-            raise ValueError(
-                f"`{name}` must return shape {shape}; at x = {x.tolist()} it returned shape {np.shape(value)}."
-            )
+    check_returned_shapes(wanted, SAMPLES[0], params)
+
+
+@dataclass(frozen=True)
+class ModelFunctionsN:
+    """The jitted user functions of a system in R^n, all of signature ``(x, params)``, by their role in
+    ``dx/dt = P grad H + eps D grad S``: GENERIC's E, grad_E and L are ``H``, ``grad_H`` and ``P`` here.
+    ``M`` is the user's metric (Fish form's G, GENERIC's friction matrix), None where the paper's metric g is
+    used."""
+
+    H: Callable
+    grad_H: Callable
+    S: Callable
+    grad_S: Callable
+    P: Callable
+    M: Callable | None
+
+
+@numba.njit(cache=CACHE)
+def no_metric(x, params):
+    """The placeholder for ``ModelN.M`` where the paper's metric is used (never called): an (n, n) zero matrix, of
+    the type a user's metric has."""
+    n = x.shape[0]
+    return np.zeros((n, n))

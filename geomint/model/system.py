@@ -16,6 +16,7 @@ checked by ``checks``, and the cross products are ``axial``'s (3-D only).
 from __future__ import annotations
 
 import functools
+import numbers
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -75,6 +76,10 @@ class MetriplecticSystem:
         Check at a few sample points that the gradients match finite differences
         of H and S, that S is a Casimir of J and that J satisfies Jacobi (and P is
         skew); a violation raises ``ValueError``.
+    dim : int, optional
+        The dimension: absent or 3 for this class; any other ``n >= 2`` makes a
+        system in R^n (``geomint.model.system_n.MetriplecticSystemN``: P as an
+        (n, n) matrix, an optional ``metric``, array-valued functions).
 
     Vector results may be 3-tuples (no allocation: the faster form in a
     compiled loop) or float64 arrays; grad_H, grad_S and J must use the same
@@ -101,6 +106,31 @@ class MetriplecticSystem:
     #: the formulas of a system made by ``from_expressions`` (only there), for saved results
     expressions: dict[str, Any]
 
+    #: the class a call with ``dim`` other than 3 makes (``model.system_n.MetriplecticSystemN`` registers itself
+    #: by subclassing with ``rn=True``: this module imports none of the R^n model)
+    _rn_class: type | None = None
+
+    def __init_subclass__(cls, rn: bool = False, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if rn:
+            MetriplecticSystem._rn_class = cls
+
+    def __new__(cls, *args: Any, dim: Any = None, **kwargs: Any) -> MetriplecticSystem:
+        """``MetriplecticSystem(..., dim=n)`` with n other than 3 makes a system in R^n (``MetriplecticSystemN``,
+        whose ``__init__`` then takes the same arguments); without ``dim``, or with ``dim=3``, the system in R^3."""
+        if cls is MetriplecticSystem and dim is not None and not _is_three(dim):
+            if MetriplecticSystem._rn_class is None:  # pragma: no cover - geomint.model imports model.system_n
+                raise RuntimeError("the R^n model (geomint.model.system_n) is not imported")
+            return object.__new__(MetriplecticSystem._rn_class)
+        if cls is MetriplecticSystem:
+            for key in ("metric", "samples"):
+                if kwargs.get(key) is not None:
+                    raise TypeError(
+                        f"`{key}` is an argument of the systems in R^n: pass `dim` (the dimension n) too; in R^3 "
+                        "the metric is the paper's g, and the checks' samples are fixed."
+                    )
+        return object.__new__(cls)
+
     def __init__(
         self,
         *,
@@ -115,6 +145,7 @@ class MetriplecticSystem:
         name: str = "custom",
         exact_flows: dict[str, Any] | None = None,
         check: bool = True,
+        dim: int | None = None,
     ) -> None:
         if (J is None) == (P is None):
             raise ValueError("give exactly one of `J` (axial vector) and `P` (skew matrix) for the Poisson tensor.")
@@ -401,6 +432,11 @@ def _states(x):
 def _array(v):
     """A 3-tuple of components as an array: (3,) for floats, (n, 3) for arrays over states."""
     return np.array(v, dtype=np.float64) if isinstance(v[0], float) else np.stack(v, axis=-1)
+
+
+def _is_three(dim):
+    """``dim`` is the integer 3 (a bool or float is not: the R^n class then names the argument)."""
+    return isinstance(dim, numbers.Integral) and not isinstance(dim, (bool, np.bool_)) and dim == 3
 
 
 def _check_eps(eps):
