@@ -42,7 +42,20 @@ from .layout import (
     SUB_STEP_RISES,
     USER_RAISED,
 )
-from .state import ANCHOR, S_AT, culprit_of, finite, flushed, keep, pack, point, pulled_back, save_row, unchanged, unpack
+from .state import (
+    ANCHOR,
+    S_AT,
+    culprit_of,
+    finite,
+    flushed,
+    keep,
+    pack,
+    point,
+    pulled_back,
+    save_row,
+    unchanged,
+    unpack,
+)
 
 #: the output arrays: saved times, states, H, S; ``counters`` (``layout`` codes); the last residual
 Output = namedtuple("Output", "t x H S counters residual")

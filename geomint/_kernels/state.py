@@ -19,8 +19,8 @@ from numba.extending import overload
 from .composition import pull_back
 from .field import non_finite_culprit
 from .field_n import non_finite_culprit_n
-from .layout import ModelN
 from .jit import inner
+from .layout import ModelN
 from .step_n import V_C, V_R, to_level, vector
 from .vec3 import flush_tiny, is_finite, load, same
 from .vecn import all_finite, copy_into

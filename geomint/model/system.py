@@ -105,6 +105,8 @@ class MetriplecticSystem:
 
     #: the formulas of a system made by ``from_expressions`` (only there), for saved results
     expressions: dict[str, Any]
+    #: the dimension of the state (``MetriplecticSystemN`` sets its own)
+    dim: int = 3
 
     #: the class a call with ``dim`` other than 3 makes (``model.system_n.MetriplecticSystemN`` registers itself
     #: by subclassing with ``rn=True``: this module imports none of the R^n model)

@@ -28,11 +28,11 @@ DIMENSION = 3
 MAX_STEPS = 1 << 52
 
 
-def check_states(value: object, name: str, one: bool = True) -> npt.NDArray[np.float64]:
-    """``value`` as float64 states: one state, shape ``(n,)`` (``one``), or starts, shape ``(m, n)`` with
-    ``m >= 1``.  ``n`` is read from the data and must be ``DIMENSION``."""
-    shape = f"({DIMENSION},)" if one else f"(n, {DIMENSION})"
-    kind = f"a sequence of {DIMENSION} real numbers" if one else f"an array of real starts, shape {shape}"
+def check_states(value: object, name: str, one: bool = True, dim: int = DIMENSION) -> npt.NDArray[np.float64]:
+    """``value`` as float64 states: one state, shape ``(dim,)`` (``one``), or starts, shape ``(m, dim)`` with
+    ``m >= 1``; ``dim`` is the system's dimension (``DIMENSION`` in R^3)."""
+    shape = f"({dim},)" if one else f"(n, {dim})"
+    kind = f"a sequence of {dim} real numbers" if one else f"an array of real starts, shape {shape}"
     if isinstance(value, (str, bytes)):
         raise TypeError(f"`{name}` must be {kind}; got {value!r}.")
     try:
@@ -43,11 +43,11 @@ def check_states(value: object, name: str, one: bool = True) -> npt.NDArray[np.f
         isinstance(v, (bool, np.bool_)) for v in np.asarray(value, dtype=object).ravel()
     ):
         raise TypeError(f"`{name}` must be {kind}; got {value!r}.")  # True is no coordinate, even beside numbers
-    if states.ndim != (1 if one else 2) or states.shape[-1] != DIMENSION or states.size == 0:
+    if states.ndim != (1 if one else 2) or states.shape[-1] != dim or states.size == 0:
         length = states.shape[-1] if states.ndim else 0
         why = (
-            f"states of length {DIMENSION}, as geomint integrates systems in R^{DIMENSION} (got length {length})"
-            if length != DIMENSION
+            f"states of length {dim}, as the system is in R^{dim} (got length {length})"
+            if length != dim
             else ("one state, a 1-D array" if one else "a 2-D array, a row per start")
         )
         raise ValueError(
@@ -60,7 +60,7 @@ def check_state(
     x0: npt.ArrayLike, system: MetriplecticSystem | None = None, name: str = "x0"
 ) -> npt.NDArray[np.float64]:
     """One finite state (``check_states``), with H and S finite there when ``system`` is given."""
-    x = check_states(x0, name)
+    x = check_states(x0, name, dim=getattr(system, "dim", DIMENSION))
     if not np.all(np.isfinite(x)):
         raise ValueError(f"`{name}` must be finite; got {x.tolist()}.")
     if system is not None:

@@ -16,6 +16,7 @@ import numpy as np
 
 from .._kernels import layout as _layout
 from .._kernels import loop as _loop
+from .._kernels import step_n as _step_n
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
@@ -35,10 +36,10 @@ FIRST_CHUNK = 1000
 MAX_CHUNK = 10_000_000
 
 
-def new_output(rows: int) -> _loop.Output:
+def new_output(rows: int, dim: int = 3) -> _loop.Output:
     return _loop.Output(
         np.empty(rows),
-        np.empty((rows, 3)),
+        np.empty((rows, dim)),
         np.empty(rows),
         np.empty(rows),
         np.zeros(_layout.N_COUNTERS, dtype=np.int64),
@@ -80,19 +81,22 @@ def save_interrupted(system: MetriplecticSystem, state: npt.NDArray[np.float64],
     counters = out.counters
     row = int(counters[_layout.ROWS])
     if out.t[row - 1] != t:
-        x = state[_layout.STATE_X : _layout.STATE_X + 3].copy()
+        x = state[: out.x.shape[1]].copy()
         out.t[row], out.x[row], out.H[row], out.S[row] = t, x, system.H(x), state[_layout.STATE_S]
         counters[_layout.ROWS] = row + 1
     counters[_layout.STATUS] = _layout.INTERRUPTED
 
 
 def new_run_state(
-    step_data: tuple, x0: npt.NDArray[np.float64]
+    step_data: tuple, x0: npt.NDArray[np.float64], rn: bool = False
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """``(work, state)`` of a run from ``x0``: the method's workspace, and the state with no compensation yet, the
-    energy anchor to be taken at ``x0`` (NaN) and S unknown."""
-    work = np.zeros(getattr(step_data, "slots", 1) * _layout.WORK)
-    state = np.concatenate([x0, np.zeros(3), [np.nan, 0.0]])
+    energy anchor to be taken at ``x0`` (NaN) and S unknown (``geomint._kernels.state``); ``rn``: a system of
+    the R^n engine (``MetriplecticSystemN``, n = 3 too), whose workspace is ``step_n``'s."""
+    n = len(x0)
+    size = _step_n.work_size(n) if rn else getattr(step_data, "slots", 1) * _layout.WORK
+    work = np.zeros(size)
+    state = np.concatenate([x0, np.zeros(n), [np.nan, 0.0]])
     return work, state
 
 

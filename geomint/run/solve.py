@@ -15,6 +15,7 @@ from .._kernels import layout as _layout
 from .._kernels import loop as _loop
 from ..integrators import DormandPrince853, Gonzalez, Projected, resolve
 from ..model.system import MetriplecticSystem
+from ..model.system_n import MetriplecticSystemN
 from ..results.dense import Hermite
 from ..results.solution import AccuracyWarning, Solution
 from .arguments import check_direction, check_memory, check_span, check_state, check_t_eval, with_args
@@ -195,6 +196,8 @@ def solve(
             f"eps = {system.eps!r}. Use it inside Strang(...) or on system.with_effects(eps=0)."
         )
     integrator.check_system(system)
+    if isinstance(system, MetriplecticSystemN):
+        check_in_rn(system, integrator, h, t_eval, events, dense_output)
     x0 = check_state(x0, system)
     t0, t_end = check_span(t_span)
     step_data = integrator.lower(system)
@@ -221,6 +224,40 @@ def solve(
     ratio, rate = step_ratios(system, integrator, h, x0[None], sol.x_final[None])
     caveat = step_caveat(integrator, h, ratio[0], rate[0])
     return _flagged(sol, [caveat] if caveat else [], step_ratio=float(ratio[0]))
+
+
+#: the methods that run in R^n so far (docs/engine_rn.md); the others are refused by name
+RN_METHODS = ("Gonzalez", "AVF", "ItohAbe", "SymmetrizedItohAbe", "RK4")
+
+
+def check_in_rn(system: MetriplecticSystem, integrator: Integrator, h, t_eval, events, dense_output) -> None:
+    """Refuse, naming the argument, what a run in R^n does not offer yet: methods other than ``RN_METHODS``,
+    the symmetrized Itoh-Abe gradient beyond ``MAX_SYMMETRIZED_DIM``, adaptive steps, t_eval, events and
+    dense output."""
+    from .._kernels.step_n import MAX_SYMMETRIZED_DIM
+
+    n = system.dim
+    name = type(integrator).__name__
+    if name not in RN_METHODS:
+        raise ValueError(
+            f"`method` {integrator!r} does not run in R^n yet (the system is in R^{n}); the methods that do are "
+            f"{', '.join(m + '()' for m in RN_METHODS)}."
+        )
+    if name == "SymmetrizedItohAbe" and n > MAX_SYMMETRIZED_DIM:
+        raise ValueError(
+            f"`method` SymmetrizedItohAbe() averages Itoh-Abe's gradient over the n! orders of the coordinates, "
+            f"offered for n <= {MAX_SYMMETRIZED_DIM}; the system is in R^{n} ({math.factorial(n)} orders). "
+            "Use Gonzalez() or AVF() (symmetric, order 2)."
+        )
+    for arg, given in (("h", h is None), ("t_eval", t_eval is not None), ("events", events is not None)):
+        if given:
+            what = "adaptive steps (h=None)" if arg == "h" else f"`{arg}`"
+            raise ValueError(
+                f"`{arg}`: {what} are not offered in R^n yet (the system is in R^{n}); give a fixed step h and "
+                "save_every."
+            )
+    if dense_output:
+        raise ValueError(f"`dense_output` is not offered in R^n yet (the system is in R^{n}).")
 
 
 def _flagged(sol, caveats, **fields):
@@ -282,22 +319,22 @@ def _damped(integrator):
 
 
 def local_rate(system: MetriplecticSystem, X: npt.ArrayLike, conservative: bool = False) -> npt.NDArray[np.float64]:
-    """The field's local rate at each state of ``X`` (shape (n, 3)): the 2-norm of its Jacobian by central
-    differences (6 field evaluations a state, at relative offsets eps^(1/3)); of the conservative part
+    """The field's local rate at each state of ``X`` (shape (m, n)): the 2-norm of its Jacobian by central
+    differences (2n field evaluations a state, at relative offsets eps^(1/3)); of the conservative part
     ``xi_P`` alone when ``conservative``.  NaN where a user function raises or a value is not finite."""
     X = np.asarray(X, dtype=np.float64)
-    n = len(X)
+    n, d = X.shape
     delta = np.cbrt(np.finfo(float).eps) * np.max(np.abs(X), axis=1)
     delta = np.where(delta > 0.0, delta, np.cbrt(np.finfo(float).eps))
-    moves = delta[:, None, None] * np.eye(3)
-    points = np.concatenate([X[:, None, :] + moves, X[:, None, :] - moves], axis=1).reshape(-1, 3)
+    moves = delta[:, None, None] * np.eye(d)
+    points = np.concatenate([X[:, None, :] + moves, X[:, None, :] - moves], axis=1).reshape(-1, d)
     field = system.xi_P if conservative else system.xi
     try:
         with np.errstate(all="ignore"):
-            values = np.asarray(field(points), dtype=np.float64).reshape(n, 6, 3)
+            values = np.asarray(field(points), dtype=np.float64).reshape(n, 2 * d, d)
             if conservative and not system.hamiltonian:
                 values = np.zeros_like(values)
-            jacobian = ((values[:, :3] - values[:, 3:]) / (2.0 * delta[:, None, None])).transpose(0, 2, 1)
+            jacobian = ((values[:, :d] - values[:, d:]) / (2.0 * delta[:, None, None])).transpose(0, 2, 1)
             rate = np.full(n, np.nan)
             finite = np.all(np.isfinite(jacobian), axis=(1, 2))
             rate[finite] = np.linalg.norm(jacobian[finite], 2, axis=(1, 2))
@@ -344,8 +381,8 @@ def _on_grid(system, integrator, step_data, x0, t0, t_end, h, save_every, progre
     grid, n_steps = constant_grid(t0, t_end, h, save_every)
     rows = n_steps // grid.save_every + 2
     check_memory(rows)
-    out = new_output(rows)
-    work, state = new_run_state(step_data, x0)
+    out = new_output(rows, len(x0))
+    work, state = new_run_state(step_data, x0, isinstance(system, MetriplecticSystemN))
     counters = out.counters
     checkpoint = check_checkpoint(checkpoint)
     identity = run_id(system, x0, t0, t_end, grid.h, grid.save_every, integrator)
@@ -387,7 +424,7 @@ def _to_stops(
     rows = FIRST_ROWS if save_all else len(stops) + 2
     check_memory(rows)
     out = new_output(rows)
-    work, state = new_run_state(step_data, x0)
+    work, state = new_run_state(step_data, x0, isinstance(system, MetriplecticSystemN))
     counters = out.counters
     terminated = None
     scanned = 0
@@ -493,10 +530,13 @@ def raised_message(
     along the explicit Euler move ``x + s h xi(x)``)."""
     error = raised[0] if raised else None
     f = system.functions
-    poisson = "P" if f.poisson_form == "matrix" else "J"
-    name = error and _user_errors.raised_by(
-        error, {"H": f.H, "grad_H": f.grad_H, "S": f.S, "grad_S": f.grad_S, poisson: f.poisson}
-    )
+    if not isinstance(system, MetriplecticSystemN):
+        poisson = "P" if f.poisson_form == "matrix" else "J"
+        functions = {"H": f.H, "grad_H": f.grad_H, "S": f.S, "grad_S": f.grad_S, poisson: f.poisson}
+    else:
+        poisson = "P"
+        functions = {"H": f.H, "grad_H": f.grad_H, "S": f.S, "grad_S": f.grad_S, "P": f.P}
+    name = error and _user_errors.raised_by(error, functions)
     if name:
         return f"the user function `{name}` raised {error!r}"
     points = [x]

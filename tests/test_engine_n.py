@@ -1,0 +1,206 @@
+"""The engine in R^n: per-step exactness over random systems and dimensions, the projection's necessity, orders,
+and the reference problems of docs/engine_rn.md (2-D Euler, damped pendula, gas containers, heat bath)."""
+
+import numpy as np
+import pytest
+import scipy.optimize
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import geomint
+from geomint import systems
+from geomint.diagnostics import observed_order
+
+EPS = np.finfo(float).eps
+
+#: the discrete-gradient methods offered in R^n; the symmetrized Itoh-Abe gradient only for n <= 5
+DISCRETE_GRADIENTS = (geomint.Gonzalez(), geomint.AVF(), geomint.ItohAbe())
+
+
+def terms(system, which, x, x_new):
+    """The size of the terms of H or S over a step: ``max(|F(x)|, |F(x')|, sum_i |x_i d_i F(x)|) + |F(0)|``."""
+    f, grad, constant = (
+        (system.H, system.grad_H, system.model.origin[0])
+        if which == "H"
+        else (system.S, system.grad_S, system.model.origin[1])
+    )
+    return max(abs(f(x)), abs(f(x_new)), float(np.abs(x * grad(x)).sum())) + abs(constant)
+
+
+def assert_exact_steps(system, sol, h_ulps=16.0, s_ulps=4.0):
+    """Every saved step keeps H within ``h_ulps`` of its terms and does not move S against its direction by more
+    than ``s_ulps``; without dissipation S (a Casimir) is kept like H."""
+    assert sol.success, sol.message
+    direction = system.direction
+    for k in range(len(sol.t) - 1):
+        x, y = sol.x[k], sol.x[k + 1]
+        dH = sol.H[k + 1] - sol.H[k]
+        assert abs(dH) <= h_ulps * EPS * terms(system, "H", x, y), (k, dH, x.tolist())
+        dS = sol.S[k + 1] - sol.S[k]
+        if system.eps == 0.0:
+            assert abs(dS) <= h_ulps * EPS * terms(system, "S", x, y), (k, dS, x.tolist())
+        else:
+            assert -direction * dS <= s_ulps * EPS * terms(system, "S", x, y), (k, dS, x.tolist())
+
+
+@settings(max_examples=30)
+@given(
+    n=st.sampled_from([2, 4, 16, 64]),
+    seed=st.integers(0, 2**16),
+    eps=st.sampled_from([0.0, 0.01, 0.3, 2.0]),
+    h=st.floats(0.005, 0.1),
+    radius=st.floats(0.1, 2.0),
+    which=st.integers(0, 3),
+)
+def test_every_step_is_exact_on_random_fish_systems(n, seed, eps, h, radius, which):
+    system = systems.random_fish(n, seed=seed, eps=eps)
+    x0 = np.random.default_rng(seed).normal(size=n)
+    x0 *= radius / np.linalg.norm(x0)
+    method = (*DISCRETE_GRADIENTS, geomint.SymmetrizedItohAbe())[which if which < 3 or n <= 5 else 0]
+    sol = geomint.solve(system, x0, (0.0, 20 * h), h=h, method=method)
+    assert sol.x.shape == (21, n)
+    assert_exact_steps(system, sol)
+
+
+@pytest.mark.parametrize("name", sorted(systems.RN_CATALOGUE))
+@pytest.mark.parametrize("method", DISCRETE_GRADIENTS, ids=lambda m: type(m).__name__)
+def test_every_step_is_exact_on_the_catalogue(name, method):
+    system = systems.RN_CATALOGUE[name]()
+    x0 = _start(name, system)
+    sol = geomint.solve(system, x0, (0.0, 5.0), h=0.05, method=method)
+    assert_exact_steps(system, sol)
+
+
+def _start(name, system):
+    if name.startswith("euler"):
+        return systems.euler_initial_state(5)
+    if name == "gas_containers":
+        return np.array([1.5, 0.0, 2.0, 2.0])
+    return np.random.default_rng(1).uniform(-1.0, 1.0, system.dim)
+
+
+def _gonzalez_step(system, x, h, projected):
+    """One step of the scheme of docs/engine_rn.md with Gonzalez's gradients, in numpy, solved by scipy to
+    round-off: with the projection Pi (as the engine) or with P(xbar) as it is."""
+
+    def dg(f, grad, a, b):
+        d = b - a
+        g = grad(0.5 * (a + b))
+        dd = d @ d
+        return g if dd == 0.0 else g + (f(b) - f(a) - g @ d) / dd * d
+
+    def residual(y):
+        gh, gs = dg(system.H, system.grad_H, x, y), dg(system.S, system.grad_S, x, y)
+        P = system.P(0.5 * (x + y))
+        if projected:
+            Pi = np.eye(len(x)) - np.outer(gs, gs) / (gs @ gs)
+            P = Pi @ P @ Pi
+        field = P @ gh + system.eps * ((gh @ gs) * gh - (gh @ gh) * gs)
+        return y - x - h * field
+
+    return scipy.optimize.root(residual, x + h * system.xi(x), tol=1e-15).x
+
+
+@pytest.mark.parametrize("projected", [True, False])
+def test_without_the_projection_S_rises(projected):
+    """S is a Casimir of P(xbar) for grad S(xbar), not for the discrete gradient: without Pi the same step,
+    solved to round-off, lets S rise (the check of ``assert_exact_steps`` fails); with Pi it does not."""
+    system = systems.random_fish(4, seed=4, eps=1e-5)
+    x = np.random.default_rng(4).normal(size=4)
+    rises = 0
+    for _ in range(40):
+        y = _gonzalez_step(system, x, 0.1, projected)
+        rises += system.S(y) - system.S(x) > 4 * EPS * terms(system, "S", x, y)
+        x = y
+    assert (rises == 0) if projected else (rises >= 8), rises
+
+
+@pytest.mark.parametrize(
+    ("method", "order"),
+    [(geomint.Gonzalez(), 2), (geomint.AVF(), 2), (geomint.RK4(), 4)],
+    ids=["gonzalez", "avf", "rk4"],
+)
+def test_orders_in_r16(method, order):
+    system = systems.random_fish(16, seed=5, eps=0.2)
+    x0 = np.random.default_rng(5).normal(size=16) * 0.5
+    steps = [0.1, 0.05, 0.025, 0.0125]
+    reference = geomint.solve(system, x0, (0.0, 1.0), h=0.001, method=geomint.RK4()).x_final
+    errors = [
+        np.linalg.norm(geomint.solve(system, x0, (0.0, 1.0), h=h, method=method).x_final - reference) for h in steps
+    ]
+    assert abs(observed_order(steps, errors) - order) <= 0.1, errors
+
+
+@pytest.mark.parametrize(("make", "N"), [(systems.euler_zeitlin, 5), (systems.euler_galerkin, 7)])
+def test_euler_relaxes_to_the_lowest_shell(make, N):
+    """eps = h = 0.05: H within 1e-13 relative throughout, S reaches S_inf = H0 within 1e-10 by t = 80, and under
+    the dissipative part alone S - S_inf decays at the linearised rate 8 eps H0 within 2%."""
+    system = make(N, eps=0.05)
+    x0 = systems.euler_initial_state(N)
+    sol = geomint.solve(system, x0, (0.0, 80.0), h=0.05)
+    H0 = sol.H[0]
+    assert H0 == pytest.approx(1.1375, rel=1e-15)
+    assert sol.energy_error <= 1e-13
+    assert abs(sol.S[-1] - H0) <= 1e-10
+    decay = geomint.solve(system.with_effects(hamiltonian=False), x0, (0.0, 120.0), h=0.05, save_every=10)
+    gap = decay.S - H0
+    late = (gap > 1e-9) & (decay.t > 20.0)
+    rate = -np.polyfit(decay.t[late], np.log(gap[late]), 1)[0]
+    assert rate == pytest.approx(8 * 0.05 * H0, rel=0.02)
+
+
+def _pendula_start(N):
+    rng = np.random.default_rng(0)
+    return np.concatenate([rng.uniform(-2.0, 2.0, N), rng.uniform(-1.0, 1.0, N), [0.0]])
+
+
+@pytest.mark.parametrize("N", [8, pytest.param(128, marks=pytest.mark.slow)])
+def test_damped_pendula_come_to_rest(N):
+    """h = 0.1, t = 400: E within 1e-12 relative, S reaches E0 + N within 1e-9 (every pendulum at cos q = -1)."""
+    system = systems.damped_pendula(N)
+    sol = geomint.solve(system, _pendula_start(N), (0.0, 400.0), h=0.1, save_every=10)
+    assert sol.energy_error <= 1e-12
+    assert abs(sol.S[-1] - (sol.H[0] + N)) <= 1e-9
+    assert_exact_steps(system, sol)
+
+
+def test_gas_containers_relax_to_equal_pressures():
+    system = systems.gas_containers()
+    sol = geomint.solve(system, [1.5, 0.0, 2.0, 2.0], (0.0, 1000.0), h=0.05, save_every=100)
+    assert_exact_steps(system, sol)
+    limit = systems.gas_containers_limit(sol.H[0])
+    assert np.allclose(sol.x_final, limit, atol=1e-8), (sol.x_final, limit)
+    assert sol.S[-1] == pytest.approx(3 * np.log(sol.H[0] / 2), rel=1e-12)
+
+
+def test_heat_bath_oscillator_follows_its_closed_form_at_order_2():
+    system = systems.heat_bath_oscillator()
+    steps = [0.1, 0.05, 0.025]
+    errors = []
+    for h in steps:
+        sol = geomint.solve(system, [1.0, 0.0, 0.0], (0.0, 10.0), h=h)
+        assert_exact_steps(system, sol)
+        exact = np.asarray(systems.heat_bath_closed_form(sol.t, 1.0, 0.0))
+        errors.append(np.max(np.abs(sol.x[:, :2] - exact.reshape(len(sol.t), -1)[:, :2])))
+    assert abs(observed_order(steps, errors) - 2) <= 0.1, errors
+
+
+def test_rk4_runs_in_rn_and_does_not_keep_H():
+    system = systems.random_fish(8, seed=2, eps=0.5)
+    sol = geomint.solve(system, np.ones(8), (0.0, 10.0), h=0.1, method="rk4")
+    assert sol.success and sol.x.shape == (101, 8)
+    assert 1e-12 < sol.energy_error < 1e-3
+
+
+def test_bad_input_is_refused_by_name():
+    system = systems.random_fish(6, seed=0, eps=0.1)
+    with pytest.raises(ValueError, match=r"`x0` must have shape \(6,\).*length 3"):
+        geomint.solve(system, [1.0, 2.0, 3.0], (0.0, 1.0), h=0.1)
+    with pytest.raises(ValueError, match=r"`method` SymmetrizedItohAbe\(\).*n <= 5.*R\^6"):
+        geomint.solve(system, np.ones(6), (0.0, 1.0), h=0.1, method=geomint.SymmetrizedItohAbe())
+    with pytest.raises(ValueError, match=r"`method` Yoshida4.*does not run in R\^n yet"):
+        geomint.solve(system, np.ones(6), (0.0, 1.0), h=0.1, method="yoshida4")
+    with pytest.raises(ValueError, match=r"`h`: adaptive steps"):
+        geomint.solve(system, np.ones(6), (0.0, 1.0))
+    with pytest.raises(ValueError, match=r"`t_eval`"):
+        geomint.solve(system, np.ones(6), (0.0, 1.0), h=0.1, t_eval=[0.5])
