@@ -1,9 +1,9 @@
-"""geomint: structure-preserving integrators for metriplectic systems in R^3.
+"""geomint: structure-preserving integrators for metriplectic systems in R^3 and R^n (docs/engine_rn.md).
 
 The package, layer by layer (each imports only the layers below it; ``tests/test_architecture.py``):
 
 * ``_kernels/``     how a step is computed: numba only;
-* ``model/``        what the equation is: ``MetriplecticSystem``, systems written as formulas;
+* ``model/``        what the equation is: ``MetriplecticSystem``, ``GenericSystem``, systems written as formulas;
 * ``systems/``      the catalogue, and closed-form reference solutions;
 * ``integrators/``  what a method is: methods as data on the one engine, and their plain-data form;
 * ``results/``      what a run gives back: ``Solution``, dense output, save and load;
@@ -46,6 +46,7 @@ from .integrators import (
     Yoshida6,
 )
 from .model.system import MetriplecticSystem
+from .model.system_n import GenericSystem, MetriplecticSystemN
 from .results.solution import AccuracyWarning, Solution, load
 from .run import events
 from .run.ensemble import Ensemble, solve_ensemble, sweep
@@ -80,6 +81,7 @@ __all__ = [
     "DormandPrince54",
     "DormandPrince853",
     "Ensemble",
+    "GenericSystem",
     "Gonzalez",
     "Integrator",
     "ItohAbe",
@@ -87,6 +89,7 @@ __all__ = [
     "KahanLi8",
     "Lie",
     "MetriplecticSystem",
+    "MetriplecticSystemN",
     "OscillatorRotation",
     "Projected",
     "RigidBodyFlow",

@@ -204,3 +204,14 @@ def test_bad_input_is_refused_by_name():
         geomint.solve(system, np.ones(6), (0.0, 1.0))
     with pytest.raises(ValueError, match=r"`t_eval`"):
         geomint.solve(system, np.ones(6), (0.0, 1.0), h=0.1, t_eval=[0.5])
+
+
+def test_a_checkpointed_run_resumes_bit_for_bit(tmp_path):
+    system = systems.damped_pendula(3)
+    x0 = _pendula_start(3)
+    whole = geomint.solve(system, x0, (0.0, 50.0), h=0.1, save_every=5)
+    path = tmp_path / "run.npz"
+    first = geomint.solve(system, x0, (0.0, 50.0), h=0.1, save_every=5, checkpoint=(path, 100))
+    assert path.exists() and first.success
+    resumed = geomint.solve(system, x0, (0.0, 50.0), h=0.1, save_every=5, resume=path)
+    assert np.array_equal(resumed.x, whole.x) and np.array_equal(resumed.S, whole.S)

@@ -61,7 +61,19 @@ def _rk4_n(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work
 @njit(inline="always")
 def _discrete_gradient_n(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
     return discrete_gradient_step_n(
-        method.kind.code, method.max_iter, method.coeffs, model, eps, hamiltonian, x, comp, H_anchor, S_x, h, work
+        method.kind.code,
+        method.max_iter,
+        method.damped.on,
+        method.coeffs,
+        model,
+        eps,
+        hamiltonian,
+        x,
+        comp,
+        H_anchor,
+        S_x,
+        h,
+        work,
     )
 
 

@@ -466,11 +466,12 @@ def _start(model, eps, hamiltonian, x, h, work):
 
 
 @hot
-def discrete_gradient_step_n(kind, max_iter, coeffs, model, eps, hamiltonian, x, comp, H_x, S_x, h, work):
+def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamiltonian, x, comp, H_x, S_x, h, work):
     """One step of the module docstring from ``x`` to the workspace's ``V_NEW``: a ``layout.StepResult`` whose
     ``x`` is that view (the loop copies it), ``comp`` passed through (no compensated summation in R^n).
 
-    ``H_x`` is the energy anchor (H(x0)), ``S_x`` S(x).  The usual step starts from the extrapolated
+    ``H_x`` is the energy anchor (H(x0)), ``S_x`` S(x).  ``damped`` (a bool): ``DampedGonzalez``'s factor on
+    the dissipation (not offered in R^n yet: ``geomint.run.solve.check_in_rn`` refuses it).  The usual step starts from the extrapolated
     increment with the kept factors; without a history, with another ``h``, or where that start fails, from a
     fresh Jacobian and the linearly implicit start.
     """
