@@ -471,9 +471,9 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
     ``x`` is that view (the loop copies it), ``comp`` passed through (no compensated summation in R^n).
 
     ``H_x`` is the energy anchor (H(x0)), ``S_x`` S(x).  ``damped`` (a bool): ``DampedGonzalez``'s factor on
-    the dissipation (not offered in R^n yet: ``geomint.run.solve.check_in_rn`` refuses it).  The usual step starts from the extrapolated
-    increment with the kept factors; without a history, with another ``h``, or where that start fails, from a
-    fresh Jacobian and the linearly implicit start.
+    the dissipation (not offered in R^n yet: ``geomint.run.solve.check_in_rn`` refuses it).  The usual step
+    starts from the extrapolated increment with the kept factors; without a history, with another ``h``, or
+    where that start fails, from a fresh Jacobian and the linearly implicit start.
     """
     n = x.shape[0]
     p = model.params
