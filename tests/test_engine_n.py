@@ -1,6 +1,9 @@
 """The engine in R^n: per-step exactness over random systems and dimensions, the projection's necessity, orders,
 and the reference problems of docs/engine_rn.md (2-D Euler, damped pendula, gas containers, heat bath)."""
 
+import signal
+import warnings
+
 import numpy as np
 import pytest
 import scipy.optimize
@@ -196,22 +199,95 @@ def test_bad_input_is_refused_by_name():
     system = systems.random_fish(6, seed=0, eps=0.1)
     with pytest.raises(ValueError, match=r"`x0` must have shape \(6,\).*length 3"):
         geomint.solve(system, [1.0, 2.0, 3.0], (0.0, 1.0), h=0.1)
-    with pytest.raises(ValueError, match=r"`method` SymmetrizedItohAbe\(\).*n <= 5.*R\^6"):
+    with pytest.raises(ValueError, match=r"`method` SymmetrizedItohAbe\(.*R\^6.*n <= 5"):
         geomint.solve(system, np.ones(6), (0.0, 1.0), h=0.1, method=geomint.SymmetrizedItohAbe())
-    with pytest.raises(ValueError, match=r"`method` Yoshida4.*does not run in R\^n yet"):
-        geomint.solve(system, np.ones(6), (0.0, 1.0), h=0.1, method="yoshida4")
-    with pytest.raises(ValueError, match=r"`h`: adaptive steps"):
-        geomint.solve(system, np.ones(6), (0.0, 1.0))
-    with pytest.raises(ValueError, match=r"`t_eval`"):
-        geomint.solve(system, np.ones(6), (0.0, 1.0), h=0.1, t_eval=[0.5])
+    with pytest.raises(ValueError, match=r"`method` Projected.*symmetric projection is offered in R\^3 only"):
+        geomint.solve(
+            system, np.ones(6), (0.0, 1.0), h=0.1, method=geomint.Projected(geomint.Gonzalez(), symmetric=True)
+        )
 
 
-def test_a_checkpointed_run_resumes_bit_for_bit(tmp_path):
+#: compositions, splittings and projections checked step by step in R^n
+COMPOSED = (
+    geomint.Strang(geomint.Gonzalez(), geomint.Gonzalez()),
+    geomint.Lie(geomint.Gonzalez(), geomint.AVF()),
+    geomint.Yoshida4(geomint.Gonzalez()),
+    geomint.Yoshida4(geomint.Gonzalez(), monotone=True),
+    geomint.Projected(geomint.RK4()),
+    geomint.Projected(geomint.DormandPrince54()),
+)
+
+
+@settings(max_examples=20)
+@given(
+    n=st.sampled_from([2, 4, 16]),
+    seed=st.integers(0, 2**16),
+    eps=st.sampled_from([0.0, 0.01, 0.5]),
+    h=st.floats(0.005, 0.05),
+    which=st.integers(0, len(COMPOSED) - 1),
+)
+def test_every_composed_and_projected_step_is_exact(n, seed, eps, h, which):
+    system = systems.random_fish(n, seed=seed, eps=eps)
+    x0 = np.random.default_rng(seed).normal(size=n)
+    x0 /= np.linalg.norm(x0)
+    sol = geomint.solve(system, x0, (0.0, 10 * h), h=h, method=COMPOSED[which])
+    assert_exact_steps(system, sol)
+
+
+def test_yoshida4_is_of_order_4_in_r16():
+    system = systems.random_fish(16, seed=5, eps=0.2)
+    x0 = np.random.default_rng(5).normal(size=16) * 0.5
+    steps = [0.2, 0.1, 0.05, 0.025]
+    reference = geomint.solve(system, x0, (0.0, 1.0), h=0.001, method=geomint.RK4()).x_final
+    method = geomint.Yoshida4(geomint.Gonzalez())
+    errors = [
+        np.linalg.norm(geomint.solve(system, x0, (0.0, 1.0), h=h, method=method).x_final - reference) for h in steps
+    ]
+    assert abs(observed_order(steps, errors) - 4) <= 0.1, errors
+
+
+@pytest.mark.parametrize("method", [None, "gonzalez", geomint.Projected(geomint.DormandPrince853())], ids=str)
+def test_adaptive_steps_in_rn_keep_H_and_follow_the_tolerance(method):
+    system = systems.random_fish(8, seed=7, eps=0.3)
+    x0 = np.random.default_rng(7).normal(size=8) * 0.4
+    reference = geomint.solve(system, x0, (0.0, 5.0), h=0.0005, method=geomint.RK4()).x_final
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", geomint.AccuracyWarning)  # Gonzalez at rtol 1e-6 says it lags the tolerance
+        sol = geomint.solve(system, x0, (0.0, 5.0), rtol=1e-6, method=method)
+    assert_exact_steps(system, sol)
+    error = np.max(np.abs(sol.x_final - reference)) / np.max(np.abs(reference))
+    assert error < (1e-3 if method == "gonzalez" else 1e-5), error
+    assert sol.n_steps < 2000
+
+
+def test_t_eval_events_and_dense_output_in_rn():
     system = systems.damped_pendula(3)
     x0 = _pendula_start(3)
-    whole = geomint.solve(system, x0, (0.0, 50.0), h=0.1, save_every=5)
+    times = np.linspace(0.0, 20.0, 9)
+    sol = geomint.solve(system, x0, (0.0, 20.0), h=0.05, t_eval=times)
+    assert np.array_equal(sol.t, times) and sol.x.shape == (9, 7)
+    assert_exact_steps(system, sol)
+    crossing = geomint.solve(system, x0, (0.0, 20.0), h=0.05, events=lambda t, x: x[3])  # p_1 = 0
+    assert len(crossing.t_events[0]) >= 2
+    assert np.allclose(crossing.x_events[0][:, 3], 0.0, atol=1e-10)
+    dense = geomint.solve(system, x0, (0.0, 20.0), rtol=1e-8, dense_output=True)
+    assert dense.sol(7.3).shape == (7,)
+    assert np.allclose(dense.sol(dense.t[5]), dense.x[5], rtol=0.0, atol=1e-13)
+
+
+def test_an_interrupted_run_resumes_from_its_checkpoint_bit_for_bit(tmp_path, sigint_raises):
+    """Ctrl-C after the first chunk (from the progress callback) writes the checkpoint; ``resume`` then gives the
+    arrays of the run never stopped."""
+    system = systems.damped_pendula(3)
+    x0 = _pendula_start(3)
+    span, h = (0.0, 1000.0), 0.1
+    whole = geomint.solve(system, x0, span, h=h, save_every=5)
     path = tmp_path / "run.npz"
-    first = geomint.solve(system, x0, (0.0, 50.0), h=0.1, save_every=5, checkpoint=(path, 100))
-    assert path.exists() and first.success
-    resumed = geomint.solve(system, x0, (0.0, 50.0), h=0.1, save_every=5, resume=path)
-    assert np.array_equal(resumed.x, whole.x) and np.array_equal(resumed.S, whole.S)
+    stopped = geomint.solve(
+        system, x0, span, h=h, save_every=5, checkpoint=(path, 1), progress=lambda done: signal.raise_signal(2)
+    )
+    assert stopped.status == geomint.Status.INTERRUPTED and path.exists()
+    assert 0 < stopped.n_steps < whole.n_steps
+    resumed = geomint.solve(system, x0, span, h=h, save_every=5, resume=path)
+    np.testing.assert_array_equal(resumed.x, whole.x)
+    np.testing.assert_array_equal(resumed.S, whole.S)

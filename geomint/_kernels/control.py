@@ -62,6 +62,7 @@ from numba.extending import overload
 
 from .._cache import CACHE
 from .composition import composed_step
+from .control_n import estimated_by_doubling_n, estimated_discrete_gradient_n, estimated_pair_n, first_step_n
 from .field import field
 from .jit import inner
 from .layout import (
@@ -80,6 +81,7 @@ from .layout import (
     ComposedStep,
     DiscreteGradientStep,
     EmbeddedPairStep,
+    ModelN,
     RungeKutta4,
     StepResult,
 )
@@ -236,14 +238,24 @@ _ESTIMATED = {
 }
 
 
+#: the estimates in R^n (``control_n``), chosen where the model is a ``layout.ModelN``
+_ESTIMATED_N = {
+    EmbeddedPairStep: estimated_pair_n,
+    DiscreteGradientStep: estimated_discrete_gradient_n,
+    RungeKutta4: estimated_by_doubling_n,
+    ComposedStep: estimated_by_doubling_n,
+}
+
+
 def estimated_step(method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work):
     """One attempt of ``method`` with its error norm (0 without error control): ``(StepResult, err)``."""
-    return _ESTIMATED[type(method)](method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work)
+    estimates = _ESTIMATED_N if isinstance(model, ModelN) else _ESTIMATED
+    return estimates[type(method)](method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work)
 
 
 @overload(estimated_step, inline="always")
 def _estimated_step_typed(method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work):
-    impl = _ESTIMATED[method.instance_class]
+    impl = (_ESTIMATED_N if model.instance_class is ModelN else _ESTIMATED)[method.instance_class]
     return lambda method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work: impl(
         method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work
     )
@@ -406,10 +418,24 @@ def _constant_start(control, model, eps, hamiltonian, x0, clock, t_end):
     return None
 
 
+def any_first_step(model, eps, hamiltonian, x0, t0, t_end, control):
+    """``first_step`` in R^3, ``control_n.first_step_n`` in R^n (chosen by the model's type)."""
+    chosen = first_step_n if isinstance(model, ModelN) else first_step
+    return chosen(model, eps, hamiltonian, x0, t0, t_end, control)
+
+
+@overload(any_first_step, inline="always")
+def _any_first_step_typed(model, eps, hamiltonian, x0, t0, t_end, control):
+    chosen = first_step_n if model.instance_class is ModelN else first_step
+    return lambda model, eps, hamiltonian, x0, t0, t_end, control: chosen(
+        model, eps, hamiltonian, x0, t0, t_end, control
+    )
+
+
 @njit(inline="always")
 def _control_start(control, model, eps, hamiltonian, x0, clock, t_end):
     if control.adaptive and clock[C_H] == 0.0:
-        clock[C_H] = first_step(model, eps, hamiltonian, x0, clock[C_T], t_end, control)
+        clock[C_H] = any_first_step(model, eps, hamiltonian, x0, clock[C_T], t_end, control)
 
 
 _CONSTANT = dict(

@@ -11,9 +11,11 @@ from numba import njit
 from numba.extending import overload
 
 from .composition import composed_step
+from .composition_n import composed_step_n
 from .dg_step import discrete_gradient_step
 from .layout import ComposedStep, DiscreteGradientStep, EmbeddedPairStep, ModelN, RungeKutta4
 from .runge_kutta import pair_step, rk4_step
+from .runge_kutta_n import pair_step_n
 from .step_n import discrete_gradient_step_n, rk4_step_n
 
 
@@ -77,9 +79,25 @@ def _discrete_gradient_n(method, model, eps, hamiltonian, buf, x, comp, H_anchor
     )
 
 
+@njit(inline="always")
+def _composed_n(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
+    return composed_step_n(method, model, eps, hamiltonian, x, comp, H_anchor, S_x, h, work, 0.0)[0]
+
+
+@njit(inline="always")
+def _pair_n(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
+    return pair_step_n(method, model, eps, hamiltonian, x, comp, H_anchor, S_x, h, work, False)[0]
+
+
 _STEPS = {RungeKutta4: _rk4, DiscreteGradientStep: _discrete_gradient, ComposedStep: _composed, EmbeddedPairStep: _pair}
-#: the steps in R^n (``step_n``), chosen where the model is a ``layout.ModelN``
-_STEPS_N = {RungeKutta4: _rk4_n, DiscreteGradientStep: _discrete_gradient_n}
+#: the steps in R^n (``step_n``, ``composition_n``, ``runge_kutta_n``), chosen where the model is a
+#: ``layout.ModelN``
+_STEPS_N = {
+    RungeKutta4: _rk4_n,
+    DiscreteGradientStep: _discrete_gradient_n,
+    ComposedStep: _composed_n,
+    EmbeddedPairStep: _pair_n,
+}
 
 
 def step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):

@@ -36,6 +36,7 @@ before it.
 """
 
 import numpy as np
+from numba import njit
 
 from .discrete_gradient import SWITCH
 from .field_n import field_into, jacobian_into, non_finite_culprit_n
@@ -114,6 +115,7 @@ V_PIVOTS = 16
 N_VECTORS = 17
 
 
+@njit(inline="always")  # called from Python (the run's workspace) and from the kernels
 def work_size(n):
     """Floats of the workspace of a run in R^n: header, ``N_VECTORS`` vectors, D xi and the LU factors."""
     return WN_HEADER + N_VECTORS * n + 2 * n * n

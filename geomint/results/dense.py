@@ -25,7 +25,7 @@ if TYPE_CHECKING:
 
 
 class Hermite:
-    """``sol(t)``: the state at ``t`` (shape (3,)) or at each of an array of times (shape (3, m)), as
+    """``sol(t)``: the state at ``t`` (shape (n,)) or at each of an array of times (shape (n, m)), as
     scipy's ``OdeSolution``; times outside ``[t_0, t_end]`` are refused."""
 
     def __init__(self, t: npt.ArrayLike, x: npt.ArrayLike, f: npt.ArrayLike) -> None:
@@ -60,5 +60,5 @@ class Hermite:
         return u.T
 
     def step(self, i: int) -> Callable[[float], npt.NDArray[np.float64]]:
-        """The interpolant on step ``i`` alone, as a function of one time: ``(3,)`` array."""
+        """The interpolant on step ``i`` alone, as a function of one time: ``(n,)`` array."""
         return lambda t: self._evaluate(np.array([i]), np.array([t], dtype=np.float64))[:, 0]

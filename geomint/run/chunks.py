@@ -16,6 +16,7 @@ import numpy as np
 
 from .._kernels import layout as _layout
 from .._kernels import loop as _loop
+from .._kernels import control_n as _control_n
 from .._kernels import step_n as _step_n
 
 if TYPE_CHECKING:
@@ -94,7 +95,11 @@ def new_run_state(
     energy anchor to be taken at ``x0`` (NaN) and S unknown (``geomint._kernels.state``); ``rn``: a system of
     the R^n engine (``MetriplecticSystemN``, n = 3 too), whose workspace is ``step_n``'s."""
     n = len(x0)
-    size = _step_n.work_size(n) if rn else getattr(step_data, "slots", 1) * _layout.WORK
+    if rn:  # a slot per sub-step position (compositions), and the adaptive controller's vectors
+        slots = step_data.slots if isinstance(step_data, _layout.ComposedStep) else 1
+        size = slots * _step_n.work_size(n) + _control_n.CONTROL_VECTORS * n
+    else:
+        size = getattr(step_data, "slots", 1) * _layout.WORK
     work = np.zeros(size)
     state = np.concatenate([x0, np.zeros(n), [np.nan, 0.0]])
     return work, state

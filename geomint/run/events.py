@@ -35,6 +35,7 @@ from .._kernels import control as _control
 from .._kernels import layout as _layout
 from .._user_errors import UserFunctionError
 from ..results.dense import Hermite
+from ..model.system_n import MetriplecticSystemN
 from .chunks import new_output, new_run_state, run_chunk
 
 if TYPE_CHECKING:
@@ -234,10 +235,10 @@ class Events:
             return float(cast(float, brentq(lambda s: float(g(s, u(s))), lo, hi, **tolerances)))
 
     def arrays(self) -> tuple[list[npt.NDArray[np.float64]], list[npt.NDArray[np.float64]]]:
-        """``(t_events, x_events)``: per event, an array of times and an ``(n, 3)`` array of states."""
+        """``(t_events, x_events)``: per event, an array of times and an ``(m, n)`` array of states."""
         return (
             [np.array(ts, dtype=np.float64) for ts in self.t_events],
-            [np.array(xs, dtype=np.float64).reshape(-1, 3) for xs in self.x_events],
+            [np.array(xs, dtype=np.float64).reshape(len(xs), -1) for xs in self.x_events],
         )
 
 
@@ -246,8 +247,9 @@ def _name(g):
 
 
 def fields(system: MetriplecticSystem, x: npt.ArrayLike) -> npt.NDArray[np.float64]:
-    """The field at each state of ``x``, shape (m, 3)."""
-    return np.asarray(system.xi(x), dtype=np.float64).reshape(-1, 3)
+    """The field at each state of ``x``, shape (m, n)."""
+    x = np.asarray(x, dtype=np.float64)
+    return np.asarray(system.xi(x), dtype=np.float64).reshape(-1, x.shape[-1])
 
 
 def step_interpolant(system: MetriplecticSystem, out: Output, n: int) -> Callable[[float], npt.NDArray[np.float64]]:
@@ -263,9 +265,9 @@ def land(
     ``anchor`` (None if that step fails): a fixed step landing on the stop ``t``, through the run's loop."""
     if t == out.t[n]:
         return out.x[n].copy()
-    one = new_output(2)
-    work, state = new_run_state(step_data, out.x[n])
-    state[_layout.STATE_ANCHOR] = anchor
+    one = new_output(2, out.x.shape[1])
+    work, state = new_run_state(step_data, out.x[n], isinstance(system, MetriplecticSystemN))
+    state[-2] = anchor  # the energy anchor: the run state's last but one entry (``geomint._kernels.state``)
     control = _control.Control(False, t - out.t[n], 1.0, 1.0, math.inf, _layout.NO_ESTIMATE, 1.0, 1.0, False)
     clock = _layout.new_clock(out.t[n])
     run_chunk(system, step_data, control, state, work, clock, np.array([t]), 4, one)

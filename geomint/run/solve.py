@@ -11,6 +11,7 @@ import numpy as np
 
 from .. import _user_errors
 from .._kernels import control as _control
+from .._kernels import control_n as _control_n
 from .._kernels import layout as _layout
 from .._kernels import loop as _loop
 from ..integrators import DormandPrince853, Gonzalez, Projected, resolve
@@ -196,11 +197,11 @@ def solve(
             f"eps = {system.eps!r}. Use it inside Strang(...) or on system.with_effects(eps=0)."
         )
     integrator.check_system(system)
-    if isinstance(system, MetriplecticSystemN):
-        check_in_rn(system, integrator, h, t_eval, events, dense_output)
     x0 = check_state(x0, system)
     t0, t_end = check_span(t_span)
     step_data = integrator.lower(system)
+    if isinstance(system, MetriplecticSystemN):
+        check_in_rn(system, integrator, step_data)
     check_direction(integrator, step_data, t_span, t0, t_end)
     if not isinstance(dense_output, (bool, np.bool_)):
         raise TypeError(f"`dense_output` must be True or False; got {dense_output!r}.")
@@ -226,38 +227,40 @@ def solve(
     return _flagged(sol, [caveat] if caveat else [], step_ratio=float(ratio[0]))
 
 
-#: the methods that run in R^n so far (docs/engine_rn.md); the others are refused by name
-RN_METHODS = ("Gonzalez", "AVF", "ItohAbe", "SymmetrizedItohAbe", "RK4")
-
-
-def check_in_rn(system: MetriplecticSystem, integrator: Integrator, h, t_eval, events, dense_output) -> None:
-    """Refuse, naming the argument, what a run in R^n does not offer yet: methods other than ``RN_METHODS``,
-    the symmetrized Itoh-Abe gradient beyond ``MAX_SYMMETRIZED_DIM``, adaptive steps, t_eval, events and
-    dense output."""
+def check_in_rn(system: MetriplecticSystem, integrator: Integrator, step_data: tuple) -> None:
+    """Refuse, naming ``method``, what a run in R^n does not offer: the exact flows (R^3 sub-flows),
+    Hairer's symmetric projection, the damped step, the symmetrized Itoh-Abe gradient beyond
+    ``MAX_SYMMETRIZED_DIM``."""
     from .._kernels.step_n import MAX_SYMMETRIZED_DIM
 
     n = system.dim
-    name = type(integrator).__name__
-    if name not in RN_METHODS:
-        raise ValueError(
-            f"`method` {integrator!r} does not run in R^n yet (the system is in R^{n}); the methods that do are "
-            f"{', '.join(m + '()' for m in RN_METHODS)}."
-        )
-    if name == "SymmetrizedItohAbe" and n > MAX_SYMMETRIZED_DIM:
-        raise ValueError(
-            f"`method` SymmetrizedItohAbe() averages Itoh-Abe's gradient over the n! orders of the coordinates, "
-            f"offered for n <= {MAX_SYMMETRIZED_DIM}; the system is in R^{n} ({math.factorial(n)} orders). "
-            "Use Gonzalez() or AVF() (symmetric, order 2)."
-        )
-    for arg, given in (("h", h is None), ("t_eval", t_eval is not None), ("events", events is not None)):
-        if given:
-            what = "adaptive steps (h=None)" if arg == "h" else f"`{arg}`"
-            raise ValueError(
-                f"`{arg}`: {what} are not offered in R^n yet (the system is in R^{n}); give a fixed step h and "
-                "save_every."
+    rows: list[tuple[int, int, int]] = []  # (leaf, kind, damped) of every leaf the method runs
+    symmetric = False
+    if isinstance(step_data, _layout.DiscreteGradientStep):
+        rows.append((_layout.LEAF_DISCRETE_GRADIENT, step_data.kind.code, int(step_data.damped.on)))
+    elif isinstance(step_data, _layout.ComposedStep):
+        iopts = step_data.iopts
+        symmetric = iopts[_layout.P_PROJECTION] == _layout.SYMMETRIC
+        for k in range(iopts[_layout.P_STAGES] + 1):
+            row = _layout.HEADER + _layout.ROW * k
+            leaf, kind, damped = (iopts[row + r] for r in (_layout.R_LEAF, _layout.R_KIND, _layout.R_DAMPED))
+            rows.append((int(leaf), int(kind), int(damped)))
+    why = None
+    if any(leaf not in (_layout.LEAF_RK4, _layout.LEAF_DISCRETE_GRADIENT) for leaf, _, _ in rows):
+        why = "its exact flows are sub-flows of systems in R^3"
+    elif symmetric:
+        why = "Hairer's symmetric projection is offered in R^3 only; Projected(..., symmetric=False) runs in R^n"
+    elif any(damped for _, _, damped in rows):
+        why = "the damped step is offered in R^3 only so far"
+    elif any(leaf == _layout.LEAF_DISCRETE_GRADIENT and kind == _layout.SYMMETRIZED_ITOH_ABE for leaf, kind, _ in rows):
+        if n > MAX_SYMMETRIZED_DIM:
+            why = (
+                f"the symmetrized Itoh-Abe gradient averages over the n! orders of the coordinates, offered for "
+                f"n <= {MAX_SYMMETRIZED_DIM} ({math.factorial(n)} orders here); Gonzalez() or AVF() are symmetric "
+                "and of order 2"
             )
-    if dense_output:
-        raise ValueError(f"`dense_output` is not offered in R^n yet (the system is in R^{n}).")
+    if why is not None:
+        raise ValueError(f"`method` {integrator!r} does not run on this system in R^{n}: {why}.")
 
 
 def _flagged(sol, caveats, **fields):
@@ -423,7 +426,7 @@ def _to_stops(
     chosen = control.adaptive and control.h == 0.0
     rows = FIRST_ROWS if save_all else len(stops) + 2
     check_memory(rows)
-    out = new_output(rows)
+    out = new_output(rows, len(x0))
     work, state = new_run_state(step_data, x0, isinstance(system, MetriplecticSystemN))
     counters = out.counters
     terminated = None
@@ -431,9 +434,8 @@ def _to_stops(
     model = system.model
     with _user_errors.catching(counters) as raised, interrupts() as interrupted:
         if chosen:  # a user function raising here fails the first step, as in the loop
-            control = control._replace(
-                h=_control.first_step(model, system.eps, system.hamiltonian, x0, t0, t_end, control)
-            )
+            first = _control_n.first_step_n if isinstance(system, MetriplecticSystemN) else _control.first_step
+            control = control._replace(h=first(model, system.eps, system.hamiltonian, x0, t0, t_end, control))
         clock = _layout.new_clock(t0, control.h)
         budget = FIRST_CHUNK
         while clock[_layout.C_STOP] < len(stops) and counters[_layout.STATUS] == Status.OK:
@@ -444,7 +446,7 @@ def _to_stops(
                 progress(int(counters[_layout.STEPS]))
             rows = int(counters[_layout.ROWS])
             if events is not None and rows - scanned > 1:
-                terminated = events.scan(system, step_data, out, scanned, rows, state[_layout.STATE_ANCHOR])
+                terminated = events.scan(system, step_data, out, scanned, rows, state[-2])  # the energy anchor
                 scanned = rows - 1
                 if terminated is not None:
                     break
@@ -508,7 +510,7 @@ def _grown(out):
     """``out`` with twice the rows (the rows written so far copied; the same counters array)."""
     rows = len(out.t)
     check_memory(2 * rows)
-    bigger = new_output(2 * rows)
+    bigger = new_output(2 * rows, out.x.shape[1])
     for old, new in zip(out[:4], bigger[:4]):
         new[:rows] = old
     return bigger._replace(counters=out.counters, residual=out.residual)
