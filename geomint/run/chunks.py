@@ -14,9 +14,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._kernels import control_n as _control_n
 from .._kernels import layout as _layout
 from .._kernels import loop as _loop
-from .._kernels import control_n as _control_n
 from .._kernels import step_n as _step_n
 
 if TYPE_CHECKING:

@@ -34,8 +34,8 @@ import numpy as np
 from .._kernels import control as _control
 from .._kernels import layout as _layout
 from .._user_errors import UserFunctionError
-from ..results.dense import Hermite
 from ..model.system_n import MetriplecticSystemN
+from ..results.dense import Hermite
 from .chunks import new_output, new_run_state, run_chunk
 
 if TYPE_CHECKING:
