@@ -7,15 +7,58 @@ trajectory of an ensemble is bit for bit the ``solve`` of its start.  A
 failure stops only its own trajectory.  The kernel releases the GIL, so
 threads calling it on interleaved trajectories run on every core (numba's
 ``prange`` cannot take the method and model tuples the step loop needs).
+
+The same kernel runs systems in R^3 and in R^n: each trajectory's model is a
+``layout.Model`` or a ``layout.ModelN`` and its state a row of 8 or of
+``2 n + 2`` floats (``geomint._kernels.state``), chosen by the model's type when
+the kernel is compiled, as the loop chooses.
 """
 
 import numpy as np
 from numba import njit
+from numba.extending import overload
 
 from .._cache import CACHE
 from .control import start
-from .layout import C_STOP, OK, STATUS, Model
+from .layout import C_STOP, OK, STATUS, Model, ModelN
 from .loop import Output, run
+from .state import _is_n, _typed_n
+
+
+@njit(inline="always")
+def _own3(model, params, origin):
+    return Model(model.H, model.grad_H, model.S, model.grad_S, model.J, params, origin)
+
+
+@njit(inline="always")
+def _own_n(model, params, origin):
+    f = model
+    return ModelN(f.H, f.grad_H, f.S, f.grad_S, f.P, f.M, params, f.metric, f.direction, origin)
+
+
+def own_model(model, params, origin):
+    """``model`` with a trajectory's ``params`` and ``origin``: a ``layout.Model`` in R^3, a ``layout.ModelN`` (its
+    metric and direction kept) in R^n."""
+    return _own_n(model, params, origin) if _is_n(model) else _own3(model, params, origin)
+
+
+@overload(own_model, inline="always")
+def _own_model_typed(model, params, origin):
+    if _typed_n(model):
+        return lambda model, params, origin: _own_n(model, params, origin)
+    return lambda model, params, origin: _own3(model, params, origin)
+
+
+def start_point(model, state):
+    """The state's x in a run state (``state``'s layout): ``state[:3]`` in R^3, ``state[:n]`` in R^n."""
+    return state[: (state.shape[0] - 2) // 2] if _is_n(model) else state[:3]
+
+
+@overload(start_point, inline="always")
+def _start_point_typed(model, state):
+    if _typed_n(model):
+        return lambda model, state: state[: (state.shape[0] - 2) // 2]
+    return lambda model, state: state[:3]
 
 
 @njit(cache=CACHE, nogil=True, error_model="numpy")
@@ -52,17 +95,17 @@ def run_batch(
     for i in range(first, states.shape[0], stride):
         if counters[i, STATUS] != OK or clocks[i, C_STOP] >= stops.shape[0]:
             continue
-        own = Model(model.H, model.grad_H, model.S, model.grad_S, model.J, params[i], origins[i])
-        start(control, own, eps[i], hamiltonian, states[i, :3], clocks[i], stops[-1])
+        own = own_model(model, params[i], origins[i])
+        start(control, own, eps[i], hamiltonian, start_point(model, states[i]), clocks[i], stops[-1])
         out = Output(t[i], x[i], H[i], S[i], counters[i], residuals[i])
         run(own, eps[i], hamiltonian, method, control, states[i], works[i], clocks[i], stops, budget, out)
 
 
-def empty_outputs(n, rows):
-    """Output arrays for ``n`` trajectories of ``rows`` saved states (times and states NaN until written)."""
+def empty_outputs(n, rows, dim=3):
+    """Output arrays for ``n`` trajectories of ``rows`` saved states in R^dim (times and states NaN until written)."""
     return (
         np.full((n, rows), np.nan),
-        np.full((n, rows, 3), np.nan),
+        np.full((n, rows, dim), np.nan),
         np.full((n, rows), np.nan),
         np.full((n, rows), np.nan),
     )

@@ -107,6 +107,10 @@ class MetriplecticSystem:
     expressions: dict[str, Any]
     #: the dimension of the state (``MetriplecticSystemN`` sets its own)
     dim: int = 3
+    #: the names of the coordinates (``MetriplecticSystemN`` sets its own)
+    variables: tuple[str, ...] = ("x", "y", "z")
+    #: -1.0: S never rises (the Fish form); GENERIC's entropy never falls (+1.0, ``GenericSystem``)
+    direction: float = -1.0
 
     #: the class a call with ``dim`` other than 3 makes (``model.system_n.MetriplecticSystemN`` registers itself
     #: by subclassing with ``rn=True``: this module imports none of the R^n model)

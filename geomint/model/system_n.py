@@ -24,6 +24,7 @@ The kernels receive both as ``layout.ModelN``.  Design notes: /work/shared/DESIG
 from __future__ import annotations
 
 import hashlib
+import keyword
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -81,6 +82,10 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         semidefinite, ``G grad H = 0``.
     name : str
         A label for reports.
+    variables : sequence of n str, optional
+        The names of the coordinates, in order (default ``("x0", "x1", ...)``):
+        distinct Python identifiers.  They label saved results and
+        ``to_xarray``'s ``component`` dimension (``system.variables``).
     samples : array (k, n), optional
         The states the structure checks use (default: six drawn uniformly from
         ``[-1, 1]^n`` with a fixed seed); give states in the domain where the
@@ -132,6 +137,7 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         name: str = "custom",
         samples: npt.ArrayLike | None = None,
         check: bool = True,
+        variables: Any = None,
         J: Any = None,
         exact_flows: Any = None,
     ) -> None:
@@ -151,9 +157,10 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
             name=name,
             samples=samples,
             check=check,
+            variables=variables,
         )
 
-    def _setup(self, given, *, eps, params, dim, name, samples, check):
+    def _setup(self, given, *, eps, params, dim, name, samples, check, variables=None):
         """Shared by both forms: ``given`` maps the roles (H, grad_H, S, grad_S, P, M) to the user's functions."""
         if dim is None:
             raise TypeError("`dim` (the dimension n >= 2 of the state) is required for a system in R^n.")
@@ -162,6 +169,7 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         self.hamiltonian = True
         self._params = _validate.reals("params", params)
         self.name = str(name)
+        self.variables = check_variables(variables, n)
         self.exact_flows = {}
         names = self._names
         self.functions = ModelFunctionsN(
@@ -430,7 +438,7 @@ class GenericSystem(MetriplecticSystemN):
         The Poisson matrix (skew, ``L grad S = 0``).
     M : numba-jitted function ``(x, params) -> (n, n) float64 array``
         The friction matrix (symmetric positive semidefinite, ``M grad E = 0``).
-    params, dim, name, samples, check
+    params, dim, name, samples, check, variables
         As for ``MetriplecticSystemN``; the checks name ``E``, ``grad_E``, ``L`` and ``M``.
 
     ``E(x)`` is ``H(x)``, ``L(x)`` is ``P(x)`` and ``M(x)`` is ``D(x)``.
@@ -454,6 +462,7 @@ class GenericSystem(MetriplecticSystemN):
         name: str = "custom",
         samples: npt.ArrayLike | None = None,
         check: bool = True,
+        variables: Any = None,
     ) -> None:
         self._setup(
             dict(H=E, grad_H=grad_E, S=S, grad_S=grad_S, P=L, M=M),
@@ -463,6 +472,7 @@ class GenericSystem(MetriplecticSystemN):
             name=name,
             samples=samples,
             check=check,
+            variables=variables,
         )
 
     def E(self, x: npt.ArrayLike) -> Any:  # a float at one state (n,), an array at many (m, n)
@@ -483,6 +493,26 @@ class GenericSystem(MetriplecticSystemN):
     def dE_dt(self, x: npt.ArrayLike) -> Any:
         """``grad E . xi`` as computed: 0 up to round-off."""
         return self.dH_dt(x)
+
+
+def check_variables(variables: Any, n: int) -> tuple[str, ...]:
+    """The names of the n coordinates: ``("x0", ..., "x{n-1}")`` for None, else n distinct Python identifiers (not
+    keywords), as a tuple; a TypeError/ValueError naming ``variables`` otherwise."""
+    if variables is None:
+        return tuple(f"x{i}" for i in range(n))
+    rule = f"`variables` must be a sequence of n = {n} distinct names (Python identifiers), one per coordinate"
+    if isinstance(variables, (str, bytes)) or not hasattr(variables, "__iter__"):
+        raise TypeError(f"{rule}; got {variables!r}.")
+    names = tuple(variables)
+    bad = [v for v in names if not isinstance(v, str) or not v.isidentifier() or keyword.iskeyword(v)]
+    if bad:
+        raise ValueError(f"{rule}; {bad[0]!r} is not an identifier.")
+    if len(names) != n:
+        raise ValueError(f"{rule}; got {len(names)} names.")
+    repeated = sorted({v for v in names if names.count(v) > 1})
+    if repeated:
+        raise ValueError(f"{rule}; {repeated[0]!r} is given {names.count(repeated[0])} times.")
+    return names
 
 
 def _paper_metric(gh):

@@ -3,12 +3,15 @@
 File layout (``numpy.savez_compressed``, no pickles: ``numpy.load(path,
 allow_pickle=False)`` reads it):
 
-- arrays ``t (n,)``, ``x (n, 3)``, ``H (n,)``, ``S (n,)``;
+- arrays ``t (m,)``, ``x (m, n)``, ``H (m,)``, ``S (m,)`` (n = 3 in R^3);
 - ``metadata``: one JSON string with ``format``, ``format_version``, the
   geomint version (no git state), the status fields and work counts, the
+  dimension ``dim``, the direction of S (``S_direction``: -1 where S never
+  rises, the Fish form; +1 where it never falls, GENERIC's entropy), the
   method as data (``geomint.integrators.data``: name and options, nested) and,
-  when given, the system (name, parameters, eps, effects, and its formulas
-  when it was built from expressions).
+  when given, the system (name, form ``"Fish"`` or ``"GENERIC"``, dimension,
+  the names of its coordinates, direction of S, parameters, eps, effects, and
+  its formulas when it was built from expressions).
 
 >>> import geomint, tempfile, os
 >>> body = geomint.systems.relaxing_rigid_body(eps=0.1)
@@ -46,15 +49,21 @@ _SCALARS = ("success", "status", "message", "failed_step", "n_steps", "n_newton"
 
 
 def metadata(solution: Solution, system: MetriplecticSystem | None = None) -> dict[str, Any]:
-    """The JSON-ready description of ``solution`` (and of ``system``, if given) that ``save`` writes."""
+    """The JSON-ready description of ``solution`` (and of ``system``, if given) that ``save`` writes; a ``system``
+    of another dimension or direction of S than the solution's is refused, naming ``system``."""
     from .._version import __version__
 
     method = solution.method
+    dim, direction = _dim(solution), S_direction(solution)
+    if system is not None:
+        _check_system(system, dim, direction)
     return {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
         "geomint": __version__,
         **{key: _plain(getattr(solution, key)) for key in _SCALARS},
+        "dim": dim,
+        "S_direction": direction,
         "method": method_to_data(method) if isinstance(method, Integrator) else str(method),
         "system": None if system is None else system_metadata(system),
         # why a successful run may not be accurate (optional keys: files written before them read as none)
@@ -64,9 +73,15 @@ def metadata(solution: Solution, system: MetriplecticSystem | None = None) -> di
 
 
 def system_metadata(system: MetriplecticSystem) -> dict[str, Any]:
-    """``{"name", "params", "eps", "hamiltonian"}`` of a system, with ``"expressions"`` when it has formulas."""
+    """``{"name", "form", "dim", "variables", "direction", "params", "eps", "hamiltonian"}`` of a system, with
+    ``"expressions"`` when it has formulas.  ``form`` is ``"GENERIC"`` for a ``GenericSystem`` (S the entropy,
+    ``direction`` +1: it never falls), else ``"Fish"`` (S the Casimir, ``direction`` -1: it never rises)."""
     data: dict[str, Any] = {
         "name": system.name,
+        "form": "GENERIC" if system.direction > 0 else "Fish",
+        "dim": int(system.dim),
+        "variables": list(system.variables),
+        "direction": float(system.direction),
         "params": system.params.tolist(),
         "eps": system.eps,
         "hamiltonian": system.hamiltonian,
@@ -112,14 +127,21 @@ def read(path: str | os.PathLike[str]) -> dict[str, Any]:
     except MethodDataError:
         method = meta["method"]
     caveats = {"caveats": tuple(meta.get("caveats") or ()), "step_ratio": meta.get("step_ratio")}
-    return {**arrays, **{key: meta[key] for key in _SCALARS}, "method": method, **caveats}
+    # files written before the direction was recorded hold runs in R^3, where S never rises
+    direction = float(meta.get("S_direction", -1.0))
+    return {**arrays, **{key: meta[key] for key in _SCALARS}, "method": method, **caveats, "S_direction": direction}
 
 
 def to_xarray(solution: Solution, system: MetriplecticSystem | None = None) -> Any:  # an xarray.Dataset
     """An ``xarray.Dataset``: ``x (t, component)``, ``H (t)``, ``S (t)``; the metadata as attributes.
 
-    Attributes hold scalars and the method/system as JSON strings (netCDF-safe).
-    Needs the optional ``xarray`` (``pip install geomint[xarray]``).
+    ``component`` is labelled with the system's ``variables`` (without a
+    system: ``x, y, z`` in R^3, ``x0, x1, ...`` in R^n).  Attributes hold
+    scalars and the method/system as JSON strings (netCDF-safe), and what S is:
+    ``S_direction`` (-1.0 or +1.0) and ``S_meaning`` (``"entropy: never falls
+    (GENERIC)"`` or ``"Casimir: never rises (Fish form)"``), also on ``S``
+    itself (``long_name``, ``direction``).  Needs the optional ``xarray``
+    (``pip install geomint[xarray]``).
     """
     try:
         import xarray
@@ -133,11 +155,54 @@ def to_xarray(solution: Solution, system: MetriplecticSystem | None = None) -> A
         for key, value in meta.items()
     }
     attrs["success"] = int(attrs["success"])
-    return xarray.Dataset(
+    direction = meta["S_direction"]
+    attrs.update(direction_attrs(direction))
+    names = list(system.variables) if system is not None else default_variables(meta["dim"])
+    data = xarray.Dataset(
         {"x": (("t", "component"), solution.x), "H": ("t", solution.H), "S": ("t", solution.S)},
-        coords={"t": solution.t, "component": ["x", "y", "z"]},
+        coords={"t": solution.t, "component": names},
         attrs=attrs,
     )
+    data["S"].attrs.update(S_attrs(direction))
+    data["H"].attrs["long_name"] = "energy"
+    return data
+
+
+def default_variables(dim: int) -> list[str]:
+    """The names of the coordinates where no system says them: ``x, y, z`` in R^3, ``x0, x1, ...`` in R^n."""
+    return ["x", "y", "z"] if dim == 3 else [f"x{i}" for i in range(dim)]
+
+
+def S_direction(solution: Solution) -> float:
+    """The direction of S of the system ``solution`` came from: -1.0 (S never rises) or +1.0 (never falls)."""
+    return float(getattr(solution, "S_direction", -1.0))
+
+
+def direction_attrs(direction: float) -> dict[str, Any]:
+    """Attributes of a dataset saying what S is: ``S_direction`` and ``S_meaning``."""
+    meaning = "entropy: never falls (GENERIC)" if direction > 0 else "Casimir: never rises (Fish form)"
+    return {"S_direction": float(direction), "S_meaning": meaning}
+
+
+def S_attrs(direction: float) -> dict[str, str]:
+    """Attributes of the variable S: ``long_name`` (entropy or Casimir) and ``direction``."""
+    if direction > 0:
+        return {"long_name": "entropy", "direction": "never falls"}
+    return {"long_name": "Casimir", "direction": "never rises"}
+
+
+def _dim(solution):
+    x = np.asarray(solution.x)
+    return int(x.shape[1]) if x.ndim == 2 else 3
+
+
+def _check_system(system, dim, direction):
+    if int(system.dim) != dim or float(system.direction) != direction:
+        raise ValueError(
+            f"`system` {system.name!r} (in R^{system.dim}, S direction {float(system.direction):+g}) is not the "
+            f"system of this solution (states in R^{dim}, S direction {direction:+g}); pass the system it was "
+            "solved with, or none."
+        )
 
 
 def _metadata(path, data):

@@ -35,13 +35,14 @@ class Solution:
 
     Attributes
     ----------
-    t : (n,) array
+    t : (m,) array
         Saved times: every ``save_every``-th step, and always the last state
         reached (``t_end`` on success, the last good state on failure).
-    x : (n, 3) array
-        States at ``t``.
-    H, S : (n,) arrays
-        Energy and Casimir at ``t``.
+    x : (m, n) array
+        States at ``t`` (n = 3 in R^3; the system's ``dim`` in R^n).
+    H, S : (m,) arrays
+        Energy and Casimir at ``t`` (for a ``GenericSystem``: the energy E and
+        the entropy S, with their own signs).
     success : bool
         True when the run reached ``t_end`` or a terminal event (``status`` 0 or 1).
     status : geomint.Status
@@ -82,6 +83,21 @@ class Solution:
         Jacobian, the larger at the first and the last state; the conservative
         part only for damped methods).  Above ``geomint.run.solve.STEP_RATIO_LIMIT``
         the run is flagged.  None for adaptive steps.
+    S_direction : float
+        The direction of S of the system the run came from: -1.0 where S never
+        rises (the Fish form, R^3 and ``MetriplecticSystemN``), +1.0 where it
+        never falls (the entropy of a ``GenericSystem``).
+
+    Counting S's moves (over saved consecutive pairs, in forward time, beyond
+    ``ulps`` ulps of S; the properties at 16 ulps):
+
+    * ``S_rises`` / ``count_S_rises(ulps)``: pairs where S rose.  Against the
+      direction in the Fish form; the normal direction for GENERIC.
+    * ``S_falls`` / ``count_S_falls(ulps)``: pairs where S fell.  Against the
+      direction for GENERIC; the normal direction in the Fish form.
+    * ``S_against_direction`` / ``count_S_against_direction(ulps)``: pairs where
+      S moved against ``S_direction`` (``S_rises`` in the Fish form,
+      ``S_falls`` for GENERIC): 0 for a method that keeps S monotone.
     """
 
     t: np.ndarray
@@ -102,10 +118,11 @@ class Solution:
     sol: object = None
     caveats: tuple = ()
     step_ratio: float | None = None
+    S_direction: float = -1.0
 
     @property
     def y(self) -> np.ndarray:
-        """The states in scipy's layout, shape (3, n) (a view of ``x``)."""
+        """The states in scipy's layout, shape (n, m) (a view of ``x``)."""
         return self.x.T
 
     @property
@@ -134,6 +151,18 @@ class Solution:
         """Saved consecutive pairs where S rose by more than round-off (see ``count_S_rises``)."""
         return self.count_S_rises()
 
+    @property
+    def S_falls(self) -> int:
+        """Saved consecutive pairs where S fell by more than round-off (see ``count_S_falls``): for a GENERIC
+        system, the steps against the direction of its entropy."""
+        return self.count_S_falls()
+
+    @property
+    def S_against_direction(self) -> int:
+        """Saved consecutive pairs where S moved against ``S_direction`` by more than round-off: ``S_rises`` in
+        the Fish form, ``S_falls`` for GENERIC (see ``count_S_against_direction``)."""
+        return self.count_S_against_direction()
+
     def save(self, path: str | os.PathLike[str], system: MetriplecticSystem | None = None) -> Path:
         """Write to ``path`` (.npz with JSON metadata; ``system`` recorded if given): ``geomint.results.io.save``."""
         return _io.save(self, path, system)
@@ -147,6 +176,15 @@ class Solution:
         (``geomint.diagnostics.S_rises``)."""
         return len(S_rises(self, ulps))
 
+    def count_S_falls(self, ulps: float = 16) -> int:
+        """Saved consecutive pairs where S fell by more than ``ulps`` ulps in forward time (``S_falls``)."""
+        return len(S_falls(self, ulps))
+
+    def count_S_against_direction(self, ulps: float = 16) -> int:
+        """Saved consecutive pairs where S moved against ``S_direction`` by more than ``ulps`` ulps in forward
+        time: ``count_S_falls`` for GENERIC (``S_direction`` +1), ``count_S_rises`` otherwise."""
+        return self.count_S_falls(ulps) if self.S_direction > 0 else self.count_S_rises(ulps)
+
 
 def S_rises(sol: Solution, ulps: float = 16) -> npt.NDArray[np.intp]:
     """Indices ``k`` of the saved pairs where S rose in forward time: ``d (S_{k+1} - S_k) > ulps * EPS *
@@ -155,9 +193,20 @@ def S_rises(sol: Solution, ulps: float = 16) -> npt.NDArray[np.intp]:
     ``len(S_rises(sol))`` is ``sol.count_S_rises(ulps)``; the indices say where
     (``sol.t[k + 1]``), for plots.
     """
+    return _moves(sol, ulps, 1.0)
+
+
+def S_falls(sol: Solution, ulps: float = 16) -> npt.NDArray[np.intp]:
+    """Indices ``k`` of the saved pairs where S fell in forward time: ``-d (S_{k+1} - S_k) > ulps * EPS *
+    max(|S_k|, |S_{k+1}|)``, ``d`` as in ``S_rises``.  For a GENERIC system (``sol.S_direction`` +1) these are the
+    steps against the direction of its entropy; ``len(S_falls(sol))`` is ``sol.count_S_falls(ulps)``."""
+    return _moves(sol, ulps, -1.0)
+
+
+def _moves(sol, ulps, sign):
     S = sol.S
     tol = ulps * EPS * np.maximum(np.abs(S[:-1]), np.abs(S[1:]))
-    return np.flatnonzero(np.sign(np.diff(sol.t)) * np.diff(S) > tol)
+    return np.flatnonzero(sign * np.sign(np.diff(sol.t)) * np.diff(S) > tol)
 
 
 def load(path: str | os.PathLike[str]) -> Solution:

@@ -19,6 +19,12 @@ kernel, so the arrays equal the local ones bit for bit, and a worker lost
 mid-run has its chunks run again by Dask.
 
 ``sweep`` runs a grid of eps values and parameter sets over the same starts.
+
+Systems in R^n (``MetriplecticSystemN``, ``GenericSystem``) run the same way:
+starts of shape (m, n), states of shape (m, rows, n), the batch kernel building
+each trajectory's ``layout.ModelN``.  What ``solve`` does not offer in R^n yet
+(``solve.check_in_rn``: adaptive steps, ``t_eval``, some methods) is refused
+here with the same message, and follows ``solve`` as it is extended.
 """
 
 from __future__ import annotations
@@ -34,12 +40,23 @@ import numpy as np
 from .. import _user_errors, _validate
 from .._kernels import batch as _batch
 from .._kernels import layout as _layout
+from .._kernels import step_n as _step_n
 from ..model.system import MetriplecticSystem
+from ..model.system_n import MetriplecticSystemN
+from ..results import io as _io
 from ..results.solution import AccuracyWarning, Solution
 from .arguments import check_direction, check_memory, check_span, check_states, check_t_eval
 from .chunks import interrupts
 from .controller import RTOL, check_step_or_control, constant_grid, landing_control
-from .solve import choose_method, raised_message, run_message, step_caveat, step_ratios, tolerance_caveat
+from .solve import (
+    check_in_rn,
+    choose_method,
+    raised_message,
+    run_message,
+    step_caveat,
+    step_ratios,
+    tolerance_caveat,
+)
 from .status import Status
 
 if TYPE_CHECKING:
@@ -66,8 +83,9 @@ class Ensemble:
     ----------
     t : (n, rows) array
         Saved times of each trajectory; NaN after its ``rows[i]`` valid rows.
-    x : (n, rows, 3) array
-        States at ``t`` (NaN-padded likewise).
+    x : (n, rows, dim) array
+        States at ``t`` (NaN-padded likewise); ``dim`` is 3, or the dimension of
+        a system in R^n.
     H, S : (n, rows) arrays
         Energy and Casimir at ``t``.
     rows : (n,) int array
@@ -93,6 +111,11 @@ class Ensemble:
     step_ratio : (n,) array or None
         Fixed steps: ``|h|`` times each trajectory's local rate, as
         ``Solution.step_ratio`` (NaN where unknown).  None for adaptive steps.
+    variables : tuple of str
+        The names of the coordinates (the system's ``variables``; ``("x", "y", "z")`` in R^3).
+    S_direction : float
+        The direction of S of the system, as ``Solution.S_direction``: -1.0 where S
+        never rises (Fish form), +1.0 where it never falls (GENERIC's entropy).
     """
 
     t: np.ndarray
@@ -112,6 +135,8 @@ class Ensemble:
     method: Integrator
     caveats: tuple = ()
     step_ratio: np.ndarray | None = None
+    variables: tuple = ("x", "y", "z")
+    S_direction: float = -1.0
 
     def __len__(self) -> int:
         return len(self.status)
@@ -123,7 +148,7 @@ class Ensemble:
 
     @property
     def x_final(self) -> npt.NDArray[np.float64]:
-        """The last state each trajectory reached, shape (n, 3) (its start if it was not run)."""
+        """The last state each trajectory reached, shape (n, dim) (its start if it was not run)."""
         return self.x[np.arange(len(self)), np.maximum(self.rows - 1, 0)]
 
     def solution(self, i: int) -> Solution:
@@ -146,15 +171,18 @@ class Ensemble:
             n_rejected=int(self.n_rejected[i]),
             caveats=self.caveats[i] if self.caveats else (),
             step_ratio=None if self.step_ratio is None else float(self.step_ratio[i]),
+            S_direction=self.S_direction,
         )
 
     def to_xarray(self, param_names: Iterable[str] | None = None) -> xarray.Dataset:
         """An ``xarray.Dataset`` (optional dependency: ``pip install geomint[xarray]``).
 
         Dimensions ``trajectory``, ``time`` (the saved rows; ``t`` is a
-        coordinate per trajectory) and ``component``; eps, the parameters
-        (named by ``param_names`` if given), status and rows are coordinates of
-        ``trajectory``.
+        coordinate per trajectory) and ``component``, labelled with the
+        system's ``variables``; eps, the parameters (named by ``param_names`` if
+        given), status and rows are coordinates of ``trajectory``.  The
+        attributes say what S is (``S_direction``, ``S_meaning``), as
+        ``Solution.to_xarray``'s do.
         """
         try:
             import xarray as xr
@@ -164,21 +192,24 @@ class Ensemble:
         if len(names) != self.params.shape[1]:
             raise ValueError(f"`param_names` must name {self.params.shape[1]} parameters; got {names!r}.")
         coords = {
-            "component": ["x", "y", "z"],
+            "component": list(self.variables),
             "eps": ("trajectory", self.eps),
             "status": ("trajectory", self.status),
             "rows": ("trajectory", self.rows),
             "t": (("trajectory", "time"), self.t),
         }
         coords.update({name: ("trajectory", self.params[:, k]) for k, name in enumerate(names)})
-        return xr.Dataset(
+        data = xr.Dataset(
             {
                 "x": (("trajectory", "time", "component"), self.x),
                 "H": (("trajectory", "time"), self.H),
                 "S": (("trajectory", "time"), self.S),
             },
             coords=coords,
+            attrs=_io.direction_attrs(self.S_direction),
         )
+        data["S"].attrs.update(_io.S_attrs(self.S_direction))
+        return data
 
 
 def solve_ensemble(
@@ -207,7 +238,9 @@ def solve_ensemble(
     Parameters
     ----------
     system : MetriplecticSystem
-    X0 : array_like, shape (n, 3)
+        In R^3, or in R^n (``MetriplecticSystemN``, ``GenericSystem``): fixed
+        steps with the methods ``solve`` runs in R^n (docs/engine_rn.md).
+    X0 : array_like, shape (n, 3), or (n, dim) for a system in R^dim
         Starts.  A row that is not finite, or where H or S is not finite, is
         refused for that trajectory only (``status`` -5); the others run.
     t_span, h, method
@@ -265,7 +298,7 @@ def solve_ensemble(
         if threads is None
         else int(threads)
     )
-    X0 = check_states(X0, "X0", one=False)
+    X0 = _check_starts(X0, system)
     n = len(X0)
     params = _per_trajectory_params(system, params, n)
     eps = _per_trajectory_eps(system, eps, n)
@@ -276,6 +309,8 @@ def solve_ensemble(
             "eps = 0 for every trajectory."
         )
     integrator.check_system(system)
+    if isinstance(system, MetriplecticSystemN):  # what R^n does not offer yet, refused as solve refuses it
+        check_in_rn(system, integrator, h, t_eval, None, False)
     t0, t_end = check_span(t_span)
     step_data = integrator.lower(system)
     check_direction(integrator, step_data, t_span, t0, t_end)
@@ -292,7 +327,7 @@ def solve_ensemble(
                 f"the times of t_eval, or the start and the end); got {save_every!r}."
             )
         plan = _MarchPlan(t0, *landing_control(integrator, h, control, t0, t_end, t_eval, False), t_eval)
-    check_memory(plan.rows * n)
+    _check_memory(system, plan.rows, n)
     if backend == "dask":  # each chunk flagged on its worker (``_dask_task`` runs solve_ensemble)
         ensemble = _on_dask(
             client,
@@ -382,7 +417,7 @@ def sweep(
     ``h`` and ``options`` go to ``solve_ensemble`` (``rtol``, ``t_eval``, ``save_every``, ``progress``,
     ``backend``...).  The result's ``eps`` and ``params`` say which point of the grid each trajectory belongs to.
     """
-    X0 = check_states([X0] if np.ndim(X0) == 1 else X0, "X0", one=False)
+    X0 = _check_starts([X0] if np.ndim(X0) == 1 else X0, system)
     eps_values = [system.eps] if eps is None else list(_validate.reals("eps", eps))
     param_sets = [system.params] if params is None else [np.asarray(p, dtype=np.float64) for p in params]
     grid = [(e, p, x) for e in eps_values for p in param_sets for x in X0]
@@ -399,6 +434,40 @@ def sweep(
 
 
 # -- input ---------------------------------------------------------------------------------------
+def _check_starts(X0, system):
+    """``X0`` as float64 starts of shape (m, dim) (``arguments.check_states``), the message of a system in R^n
+    naming its dimension and coordinates."""
+    if not isinstance(system, MetriplecticSystemN):
+        return check_states(X0, "X0", one=False)
+    dim = system.dim
+    try:
+        return check_states(X0, "X0", one=False, dim=dim)
+    except ValueError:  # a shape other than (m, dim): the values converted (check_states refuses others first)
+        got = np.asarray(X0, dtype=np.float64).shape
+        names = system.variables
+        shown = ", ".join(names) if dim <= 6 else f"{', '.join(names[:3])}, ..., {names[-1]}"
+        raise ValueError(
+            f"`X0` must have shape (m, {dim}): m >= 1 starts, a row of the {dim} coordinates ({shown}) of the "
+            f"system in R^{dim}; got shape {got}."
+        ) from None
+
+
+def _check_memory(system, rows, n):
+    """Refuse up front an ensemble whose arrays would not fit in memory (in R^n: the states, outputs and
+    workspaces; in R^3 as ``check_memory`` counts them)."""
+    if not isinstance(system, MetriplecticSystemN):
+        check_memory(rows * n)
+        return
+    dim = system.dim
+    floats = n * (rows * (dim + 3) + _step_n.work_size(dim) + 2 * dim + 2 + system.params.size + 2)
+    problem = _validate.memory_problem(8 * floats)
+    if problem:
+        raise ValueError(
+            f"{n} trajectories of {rows} saved states in R^{dim} {problem}; use a larger `save_every` (or None), "
+            "or fewer starts per call."
+        )
+
+
 def _per_trajectory_params(system, params, n):
     p = system.params
     if params is None:
@@ -577,13 +646,9 @@ class _MarchPlan:
 
 
 def _run_local(system, X0, integrator, step_data, params, eps, plan, progress, chunk, threads):
-    n = len(X0)
-    slots = getattr(step_data, "slots", 1)
-    states = np.zeros((n, _layout.N_STATE))
-    states[:, :3] = np.where(np.isfinite(X0), X0, 0.0)
-    states[:, _layout.STATE_ANCHOR] = np.nan  # H at the start (as solve)
-    works = np.zeros((n, slots * _layout.WORK))
-    t, x, H, S = _batch.empty_outputs(n, plan.rows)
+    n, dim = X0.shape
+    states, works = _run_states(system, X0, step_data)
+    t, x, H, S = _batch.empty_outputs(n, plan.rows, dim)
     counters = np.zeros((n, _layout.N_COUNTERS), dtype=np.int64)
     residuals = np.zeros((n, 1))
     if np.all(params == system.params):
@@ -620,6 +685,24 @@ def _run_local(system, X0, integrator, step_data, params, eps, plan, progress, c
             if progress is not None:
                 progress(part.stop)
     return _collect(system, integrator, X0, params, eps, plan, arrays, reasons, raised_by)
+
+
+def _run_states(system, X0, step_data):
+    """``(states, works)``, a row per trajectory, as ``chunks.new_run_state`` makes them for ``solve``: ``x0``, no
+    compensation, the energy anchor to be taken at the start (NaN), S unknown; the method's workspace (in R^n
+    ``step_n``'s)."""
+    n, dim = X0.shape
+    start = np.where(np.isfinite(X0), X0, 0.0)  # a refused start is never run
+    if isinstance(system, MetriplecticSystemN):
+        states = np.zeros((n, 2 * dim + 2))
+        states[:, :dim] = start
+        states[:, -2] = np.nan
+        return states, np.zeros((n, _step_n.work_size(dim)))
+    slots = getattr(step_data, "slots", 1)
+    states = np.zeros((n, _layout.N_STATE))
+    states[:, :3] = start
+    states[:, _layout.STATE_ANCHOR] = np.nan  # H at the start (as solve)
+    return states, np.zeros((n, slots * _layout.WORK))
 
 
 def _rerun_serially(system, step_data, plan, params, origins, eps, arrays, part):
@@ -697,6 +780,8 @@ def _collect(system, integrator, X0, params, eps, plan, arrays, reasons, raised_
         eps=eps,
         params=params,
         method=integrator,
+        variables=tuple(system.variables),
+        S_direction=float(system.direction),
     )
 
 
@@ -718,7 +803,7 @@ def _on_dask(client, system, X0, t_span, integrator, params, eps, progress, chun
         done += size[future.key]
         if progress is not None:
             progress(done)
-    return _concatenate(client.gather(futures), integrator)
+    return _concatenate(client.gather(futures), integrator, system)
 
 
 def _dask_task(system, X0, t_span, integrator, params, eps, threads, options):
@@ -731,7 +816,7 @@ def _dask_task(system, X0, t_span, integrator, params, eps, threads, options):
         )
 
 
-def _concatenate(parts, integrator):
+def _concatenate(parts, integrator, system):
     used = max(p.t.shape[1] for p in parts)
 
     def pad(array):
@@ -755,4 +840,6 @@ def _concatenate(parts, integrator):
         method=integrator,
         caveats=tuple(c for p in parts for c in p.caveats),
         step_ratio=None if parts[0].step_ratio is None else np.concatenate([p.step_ratio for p in parts]),
+        variables=tuple(system.variables),
+        S_direction=float(system.direction),
     )

@@ -502,6 +502,7 @@ def _solution(system, integrator, out, raised, t_from, h, **extra):
         nfev=int(counters[_layout.FIELD_EVALUATIONS]),
         method=integrator,
         n_rejected=int(counters[_layout.REJECTED]),
+        S_direction=float(system.direction),  # -1.0: S never rises (Fish form); +1.0: never falls (GENERIC)
         **extra,
     )
 

@@ -15,6 +15,7 @@ from .euler import (
     euler_galerkin,
     euler_initial_state,
     euler_modes,
+    euler_variables,
     euler_vorticity,
     euler_zeitlin,
 )
@@ -51,6 +52,8 @@ __all__ = [
     "euler_galerkin",
     "euler_initial_state",
     "euler_modes",
+    "euler_variables",
+    "euler_variables",
     "euler_vorticity",
     "euler_zeitlin",
     "gas_containers",

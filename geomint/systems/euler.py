@@ -3,7 +3,8 @@
 The vorticity on the torus [0, 2 pi)^2, ``omega(theta) = sum_k omega_k e^{i k . theta}`` (``omega_{-k}`` the
 conjugate of ``omega_k``), truncated to ``k`` in ``Z_N^2 \\ {0}`` (N odd), components in ``[-(N-1)/2, (N-1)/2]``.
 The state ``x`` holds the real and imaginary parts of ``omega_k`` over the half modes (``k_1 > 0``, or
-``k_1 = 0 < k_2``), ordered by ``k_1`` then ``k_2``, interleaved ``(Re, Im)``: ``n = N^2 - 1`` coordinates.
+``k_1 = 0 < k_2``), ordered by ``k_1`` then ``k_2``, interleaved ``(Re, Im)``: ``n = N^2 - 1`` coordinates,
+named ``re_k1_k2`` and ``im_k1_k2`` (``euler_variables``).
 
 References: V. Zeitlin, Physica D 49 (1991) 353 (the sine bracket); the selective decay of a metriplectic
 bracket, Morrison, Physica D 18 (1986) 410; DESIGN_RN.md section 5.
@@ -176,6 +177,7 @@ def _euler(N, eps, kind, label):
         params=[kind],
         dim=N * N - 1,
         name=f"euler_{label}_N{N}",
+        variables=euler_variables(N),
     )
 
 
@@ -223,6 +225,17 @@ def euler_modes(N: int) -> npt.NDArray[np.int64]:
     """The half modes ``(k_1, k_2)`` of the N x N truncation in the order of the coordinates, shape (n / 2, 2):
     ``x[2 i]`` and ``x[2 i + 1]`` are the real and imaginary parts of ``omega_k``, ``k = euler_modes(N)[i]``."""
     return _modes((_check_N(N) - 1) // 2)
+
+
+def euler_variables(N: int) -> tuple[str, ...]:
+    """The names of the coordinates of the N x N truncation (``system.variables``): ``re_k1_k2`` and ``im_k1_k2``,
+    the real and imaginary parts of ``omega_k``, ``k = (k1, k2)`` in the order of ``euler_modes``, a negative
+    component written ``m`` and its size (``re_1_m2`` for ``k = (1, -2)``)."""
+
+    def part(k):
+        return f"m{-k}" if k < 0 else str(k)
+
+    return tuple(f"{which}_{part(int(k1))}_{part(int(k2))}" for k1, k2 in euler_modes(N) for which in ("re", "im"))
 
 
 def euler_initial_state(N: int = 5) -> npt.NDArray[np.float64]:

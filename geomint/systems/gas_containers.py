@@ -104,6 +104,7 @@ def gas_containers(gamma: float = 1.0) -> GenericSystem:
         dim=4,
         name="gas_containers",
         samples=SAMPLES,
+        variables=("q", "p", "S1", "S2"),
     )
 
 

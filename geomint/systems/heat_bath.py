@@ -99,7 +99,16 @@ def heat_bath_oscillator(
         _positive("c", c),
     ]
     return GenericSystem(
-        E=_E, grad_E=_grad_E, S=_S, grad_S=_grad_S, L=_L, M=_M, params=params, dim=3, name="heat_bath_oscillator"
+        E=_E,
+        grad_E=_grad_E,
+        S=_S,
+        grad_S=_grad_S,
+        L=_L,
+        M=_M,
+        params=params,
+        dim=3,
+        name="heat_bath_oscillator",
+        variables=("q", "p", "s"),
     )
 
 

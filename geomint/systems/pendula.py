@@ -84,6 +84,7 @@ def damped_pendula(N: int = 4, gamma: float = 0.5) -> GenericSystem:
     so ``dq_i/dt = p_i``, ``dp_i/dt = sin q_i - gamma p_i``, ``ds/dt = gamma |p|^2``.
     ``M grad E = 0`` (``grad E = (-sin q, p, 1)``) and ``L grad S = 0``; M is
     ``gamma sum_i w_i w_i^T`` with ``w_i = e_{p_i} - p_i e_s``, positive semidefinite.
+    The coordinates are named ``q1 ... qN, p1 ... pN, s`` (``system.variables``).
     Every pendulum comes to rest at ``cos q = -1`` (the minimum of the potential
     cos q), so ``S_inf = E_0 + N``.  L and M are block-sparse: O(n) entries of n^2.
 
@@ -104,4 +105,5 @@ def damped_pendula(N: int = 4, gamma: float = 0.5) -> GenericSystem:
         params=[gamma],
         dim=2 * int(N) + 1,
         name=f"damped_pendula_{int(N)}",
+        variables=[f"q{i}" for i in range(1, int(N) + 1)] + [f"p{i}" for i in range(1, int(N) + 1)] + ["s"],
     )
