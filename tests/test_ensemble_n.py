@@ -110,9 +110,11 @@ def test_to_xarray_labels_the_coordinates_with_the_systems_variables_and_says_wh
         (dict(X0=np.zeros((2, 3))), ValueError, r"`X0` must have shape \(m, 6\): m >= 1 starts, a row of the 6 "),
         (dict(X0=np.zeros(6)), ValueError, r"`X0` must have shape \(m, 6\).*; got shape \(6,\)"),
         (dict(X0="abc"), TypeError, r"`X0` must be an array"),
-        (dict(h=None), ValueError, r"`h`: adaptive steps \(h=None\) are not offered in R\^n yet"),
-        (dict(t_eval=[0.5, 1.0]), ValueError, r"`t_eval`: `t_eval` are not offered in R\^n yet"),
-        (dict(method="yoshida4"), ValueError, r"does not run in R\^n yet \(the system is in R\^6\)"),
+        (
+            dict(method=geomint.Projected(geomint.Gonzalez(), symmetric=True)),
+            ValueError,
+            r"does not run on this system in R\^6: Hairer's symmetric projection",
+        ),
         (dict(params=np.ones((2, 3))), ValueError, r"`params` must have shape \(n, p\) = \(2, 260\)"),
         (dict(eps=[0.1, -1.0]), ValueError, r"`eps` must be >= 0"),
     ],
@@ -151,3 +153,18 @@ def test_dask_gives_each_trajectorys_solve_bit_for_bit(dask_client, system, star
     assert remote.variables == system.variables and remote.S_direction == system.direction
     for i in (0, 4, 6):
         _same(remote, i, geomint.solve(system, starts[i], (0.0, 2.0), 0.1, save_every=2))
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [dict(h=None, rtol=1e-6), dict(h=0.1, method="yoshida4"), dict(h=0.1, t_eval=[0.25, 0.5, 1.0])],
+    ids=["adaptive", "yoshida4", "t_eval"],
+)
+def test_adaptive_composed_and_t_eval_ensembles_are_their_solves_bit_for_bit(kwargs):
+    ensemble = geomint.solve_ensemble(FISH, FISH_STARTS[:3], (0.0, 1.0), **kwargs)
+    for i in range(3):
+        sol = geomint.solve(FISH, FISH_STARTS[i], (0.0, 1.0), **kwargs)
+        mine = ensemble.solution(i)
+        assert mine.n_steps == sol.n_steps and mine.success
+        np.testing.assert_array_equal(mine.x_final, sol.x_final)
+        np.testing.assert_array_equal(mine.S[-1], sol.S[-1])

@@ -95,14 +95,18 @@ def new_run_state(
     energy anchor to be taken at ``x0`` (NaN) and S unknown (``geomint._kernels.state``); ``rn``: a system of
     the R^n engine (``MetriplecticSystemN``, n = 3 too), whose workspace is ``step_n``'s."""
     n = len(x0)
-    if rn:  # a slot per sub-step position (compositions), and the adaptive controller's vectors
-        slots = step_data.slots if isinstance(step_data, _layout.ComposedStep) else 1
-        size = slots * _step_n.work_size(n) + _control_n.CONTROL_VECTORS * n
-    else:
-        size = getattr(step_data, "slots", 1) * _layout.WORK
-    work = np.zeros(size)
+    work = np.zeros(workspace_size(step_data, n, rn))
     state = np.concatenate([x0, np.zeros(n), [np.nan, 0.0]])
     return work, state
+
+
+def workspace_size(step_data: tuple, n: int, rn: bool) -> int:
+    """Floats of a run's workspace: in R^3 ``slots`` of ``layout.WORK``; in R^n (``rn``) a ``step_n`` slot per
+    sub-step position of a composition (one otherwise) and the adaptive controller's vectors (``control_n``)."""
+    if not rn:
+        return getattr(step_data, "slots", 1) * _layout.WORK
+    slots = step_data.slots if isinstance(step_data, _layout.ComposedStep) else 1
+    return int(slots * _step_n.work_size(n) + _control_n.CONTROL_VECTORS * n)
 
 
 def run_chunk(

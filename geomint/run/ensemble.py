@@ -23,8 +23,8 @@ mid-run has its chunks run again by Dask.
 Systems in R^n (``MetriplecticSystemN``, ``GenericSystem``) run the same way:
 starts of shape (m, n), states of shape (m, rows, n), the batch kernel building
 each trajectory's ``layout.ModelN``.  What ``solve`` does not offer in R^n yet
-(``solve.check_in_rn``: adaptive steps, ``t_eval``, some methods) is refused
-here with the same message, and follows ``solve`` as it is extended.
+(``solve.check_in_rn``: the R^3 exact flows, the symmetric projection) is
+refused here with the same message.
 """
 
 from __future__ import annotations
@@ -40,13 +40,12 @@ import numpy as np
 from .. import _user_errors, _validate
 from .._kernels import batch as _batch
 from .._kernels import layout as _layout
-from .._kernels import step_n as _step_n
 from ..model.system import MetriplecticSystem
 from ..model.system_n import MetriplecticSystemN
 from ..results import io as _io
 from ..results.solution import AccuracyWarning, Solution
 from .arguments import check_direction, check_memory, check_span, check_states, check_t_eval
-from .chunks import interrupts
+from .chunks import interrupts, workspace_size
 from .controller import RTOL, check_step_or_control, constant_grid, landing_control
 from .solve import (
     check_in_rn,
@@ -309,10 +308,10 @@ def solve_ensemble(
             "eps = 0 for every trajectory."
         )
     integrator.check_system(system)
-    if isinstance(system, MetriplecticSystemN):  # what R^n does not offer yet, refused as solve refuses it
-        check_in_rn(system, integrator, h, t_eval, None, False)
     t0, t_end = check_span(t_span)
     step_data = integrator.lower(system)
+    if isinstance(system, MetriplecticSystemN):  # what R^n does not offer, refused as solve refuses it
+        check_in_rn(system, integrator, step_data)
     check_direction(integrator, step_data, t_span, t0, t_end)
     t_eval = None if t_eval is None else check_t_eval(t_eval, t0, t_end)
     h, control = check_step_or_control(integrator, h, rtol, atol, first_step, max_step, t0, t_end)
@@ -327,7 +326,7 @@ def solve_ensemble(
                 f"the times of t_eval, or the start and the end); got {save_every!r}."
             )
         plan = _MarchPlan(t0, *landing_control(integrator, h, control, t0, t_end, t_eval, False), t_eval)
-    _check_memory(system, plan.rows, n)
+    _check_memory(system, step_data, plan.rows, n)
     if backend == "dask":  # each chunk flagged on its worker (``_dask_task`` runs solve_ensemble)
         ensemble = _on_dask(
             client,
@@ -452,14 +451,14 @@ def _check_starts(X0, system):
         ) from None
 
 
-def _check_memory(system, rows, n):
+def _check_memory(system, step_data, rows, n):
     """Refuse up front an ensemble whose arrays would not fit in memory (in R^n: the states, outputs and
     workspaces; in R^3 as ``check_memory`` counts them)."""
     if not isinstance(system, MetriplecticSystemN):
         check_memory(rows * n)
         return
     dim = system.dim
-    floats = n * (rows * (dim + 3) + _step_n.work_size(dim) + 2 * dim + 2 + system.params.size + 2)
+    floats = n * (rows * (dim + 3) + workspace_size(step_data, dim, True) + 2 * dim + 2 + system.params.size + 2)
     problem = _validate.memory_problem(8 * floats)
     if problem:
         raise ValueError(
@@ -697,12 +696,11 @@ def _run_states(system, X0, step_data):
         states = np.zeros((n, 2 * dim + 2))
         states[:, :dim] = start
         states[:, -2] = np.nan
-        return states, np.zeros((n, _step_n.work_size(dim)))
-    slots = getattr(step_data, "slots", 1)
+        return states, np.zeros((n, workspace_size(step_data, dim, True)))
     states = np.zeros((n, _layout.N_STATE))
     states[:, :3] = start
     states[:, _layout.STATE_ANCHOR] = np.nan  # H at the start (as solve)
-    return states, np.zeros((n, slots * _layout.WORK))
+    return states, np.zeros((n, workspace_size(step_data, 3, False)))
 
 
 def _rerun_serially(system, step_data, plan, params, origins, eps, arrays, part):
