@@ -77,13 +77,14 @@ def stiffness(system, x):
 
 
 def in_the_backward_limit(animal, method, sol, h):
-    """A run that stopped where docs/hard_cases.md says a composition's backward sub-step has no discrete-gradient
-    solution: Newton failed, and the longest backward sub-step ``|gamma_min| h`` times the stiffness at the last
-    state kept is at or beyond the lower edge of the band ``1.18 <~ |gamma_min| h lambda <~ 2.78``."""
+    """A run that stopped where docs/hard_cases.md says a composition's backward sub-step may have no
+    discrete-gradient solution: Newton failed, and the longest backward sub-step ``|gamma_min| h`` times the
+    stiffness at the last state kept is at or beyond the lower edge of the band, ``|gamma_min| h lambda >~ 1.18``
+    (the band's upper edge depends on the system: 2.78 on the relaxing body, beyond 5.7 on the quartic one)."""
     if not isinstance(method, geomint.Composition) or sol.status != NEWTON_FAILED:
         return False
     backward = -min(gammas(method.scheme))
-    return 1.0 <= backward * abs(h) * stiffness(animal.system, sol.x_final) <= 3.5
+    return backward * abs(h) * stiffness(animal.system, sol.x_final) >= 1.0
 
 
 @pytest.mark.parametrize("animal", ANIMALS, ids=lambda a: a.name)
