@@ -234,6 +234,14 @@ def test_every_composed_and_projected_step_is_exact(n, seed, eps, h, which):
     assert_exact_steps(system, sol)
 
 
+@pytest.mark.parametrize("name", sorted(systems.RN_CATALOGUE))
+@pytest.mark.parametrize("method", COMPOSED, ids=repr)
+def test_every_composed_and_projected_step_is_exact_on_the_catalogue(name, method):
+    system = systems.RN_CATALOGUE[name]()
+    sol = geomint.solve(system, _start(name, system), (0.0, 2.0), h=0.02, method=method)
+    assert_exact_steps(system, sol)
+
+
 def test_yoshida4_is_of_order_4_in_r16():
     system = systems.random_fish(16, seed=5, eps=0.2)
     x0 = np.random.default_rng(5).normal(size=16) * 0.5

@@ -26,7 +26,8 @@ def settle(model, y, H_y, H_target, S_limit, against, conserve_s, d, before):
     +1 where S must not rise, -1 where it must not fall); with ``conserve_s`` S is kept at ``S_limit`` either
     way (no dissipation: a Casimir).  ``H_y`` is H(y) (NaN: evaluated here); ``d``, ``before`` are scratch
     vectors.  Returns ``(H(y), S(y), settled, evaluations)``: ``settled`` where H is within ``ACCEPT_ULPS`` of
-    its terms of the target and S within ``ACCEPT_S_ULPS`` of its limit."""
+    its terms of the target and S within ``ACCEPT_S_ULPS`` of its limit (``ACCEPT_ULPS`` either way where it is
+    conserved)."""
     p = model.params
     evaluations = 0
     if np.isnan(H_y):
@@ -48,6 +49,6 @@ def settle(model, y, H_y, H_target, S_limit, against, conserve_s, d, before):
         evaluations += ev + ev2 + 1
     S_y = model.S(y, p)
     terms_s = term_scale_n(S_limit, S_y, model.grad_S(y, p), y, model.origin[1])
-    off = abs(S_y - S_limit) if conserve_s else against * (S_y - S_limit)
-    settled = abs(H_y - H_target) <= ACCEPT_ULPS * EPS * terms_h and off <= ACCEPT_S_ULPS * EPS * terms_s
+    off, s_ulps = (abs(S_y - S_limit), ACCEPT_ULPS) if conserve_s else (against * (S_y - S_limit), ACCEPT_S_ULPS)
+    settled = abs(H_y - H_target) <= ACCEPT_ULPS * EPS * terms_h and off <= s_ulps * EPS * terms_s
     return H_y, S_y, settled, evaluations + 2

@@ -521,8 +521,11 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
         evaluations += ev + ev2 + 1
     S_y = model.S(y, p)
     terms_s = term_scale_n(S_x, S_y, model.grad_S(y, p), y, model.origin[1])
-    s_rise = against * (S_y - S_x) if eps != 0.0 or not hamiltonian else abs(S_y - S_x)
-    if not (abs(H_y - H_x) <= ACCEPT_ULPS * EPS * terms_h and s_rise <= ACCEPT_S_ULPS * EPS * terms_s):
+    # a dissipative step must not move S against its direction beyond ACCEPT_S_ULPS; one without dissipation
+    # keeps the Casimir S as it keeps H, to ACCEPT_ULPS either way (as the R^3 step)
+    conserve_s = eps == 0.0 and hamiltonian
+    s_off, s_ulps = (abs(S_y - S_x), ACCEPT_ULPS) if conserve_s else (against * (S_y - S_x), ACCEPT_S_ULPS)
+    if not (abs(H_y - H_x) <= ACCEPT_ULPS * EPS * terms_h and s_off <= s_ulps * EPS * terms_s):
         increment = 0.0
         for i in range(n):
             increment = max(increment, abs(y[i] - x[i]))
