@@ -227,7 +227,7 @@ def solve(
 
 
 #: the methods that run in R^n so far (docs/engine_rn.md); the others are refused by name
-RN_METHODS = ("Gonzalez", "AVF", "ItohAbe", "SymmetrizedItohAbe", "RK4")
+RN_METHODS = ("Gonzalez", "DampedGonzalez", "AVF", "ItohAbe", "SymmetrizedItohAbe", "RK4")
 
 
 def check_in_rn(system: MetriplecticSystem, integrator: Integrator, h, t_eval, events, dense_output) -> None:
