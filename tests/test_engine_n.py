@@ -207,11 +207,13 @@ def test_bad_input_is_refused_by_name():
 
 
 def test_a_checkpointed_run_resumes_bit_for_bit(tmp_path):
+    """2500 steps: longer than the loop's first chunk (``chunks.FIRST_CHUNK``), after which checkpoints are
+    written; the workspace carries the solver's state (its mode, costs, factors), so the resumed run is the same."""
     system = systems.damped_pendula(3)
     x0 = _pendula_start(3)
-    whole = geomint.solve(system, x0, (0.0, 50.0), h=0.1, save_every=5)
+    whole = geomint.solve(system, x0, (0.0, 250.0), h=0.1, save_every=5)
     path = tmp_path / "run.npz"
-    first = geomint.solve(system, x0, (0.0, 50.0), h=0.1, save_every=5, checkpoint=(path, 100))
+    first = geomint.solve(system, x0, (0.0, 250.0), h=0.1, save_every=5, checkpoint=(path, 100))
     assert path.exists() and first.success
-    resumed = geomint.solve(system, x0, (0.0, 50.0), h=0.1, save_every=5, resume=path)
+    resumed = geomint.solve(system, x0, (0.0, 250.0), h=0.1, save_every=5, resume=path)
     assert np.array_equal(resumed.x, whole.x) and np.array_equal(resumed.S, whole.S)

@@ -27,9 +27,10 @@ contracts (``choose_solver``; docs/engine_rn.md, "Solving the step"):
   it does not or where ``h`` changes (the rules of SUNDIALS and RADAU5);
   O(n^2) per iteration, O(n^3) per refresh;
 * the fixed-point iteration ``x' <- x + h F(x, x')``, no Jacobian: O(cost of
-  the field) per iteration, converging linearly at the rate ``~ (h/2) |D xi|``;
-  kept while that rate stays below ``THETA_FIXED_POINT`` (or, where no Jacobian
-  is affordable, ``THETA_MATRIX_FREE``), Newton taking over where it does not.
+  the field) per iteration, converging linearly at the rate ``~ (h/2) |D xi|``:
+  kept while its iterations cost less than Newton's (its rate makes its count:
+  ``log(round-off / start error) / log(rate)``), Newton taking over where they
+  do not or where it stops contracting.
 
 Both start from a predictor (the increment extrapolated from the last three;
 without a history, the linearly implicit step at a fresh Jacobian for Newton,
@@ -130,18 +131,27 @@ CORRECTION_ROUNDS = 3
 MAX_SYMMETRIZED_DIM = 5
 
 
-#: the solvers (``choose_solver``): the fixed point is kept while its contraction rate stays below this where a
-#: Newton step is affordable (docs/engine_rn_speed.md: the crossover measured)
-THETA_FIXED_POINT = 0.2
+#: the solvers (``choose_solver``) compare costs in units of one evaluation of the discrete field, modelled as
+#: ``FIELD_COST_MATRIX n^2`` flops where P and M are matrices (forming, applying and sizing P) and
+#: ``FIELD_COST_ACTION n`` where one of them is an action; a Newton iteration adds the solve, 2 n^2 flops, a refresh
+#: n + 1 field evaluations and the factorisation, 2 n^3 / 3 flops (docs/engine_rn_speed.md: the calibration)
+FIELD_COST_MATRIX = 4.0
+FIELD_COST_ACTION = 100.0
 
 
-#: and below this where it is not (operators given as actions with n > ``MATRIX_FREE_NEWTON_N``, or no dense
-#: workspace): a step then costs O(cost of the field) per iteration, and a Jacobian n field evaluations and O(n^3)
-THETA_MATRIX_FREE = 0.9
+#: a fixed point whose mean contraction rate exceeds this stops (it is not contracting usefully)
+THETA_DIVERGE = 0.9
 
 
-#: with operators given as actions, Newton is a first choice up to this n, a fallback only above it
-MATRIX_FREE_NEWTON_N = 64
+#: above this n the first step iterates the fixed point (a first Jacobian costs n field evaluations and O(n^3));
+#: at or below it, Newton
+FIRST_NEWTON_N = 64
+
+
+#: Newton iterations per step, and refreshes per Newton step, assumed before any are measured (SUNDIALS refreshes
+#: every 20 steps)
+NEWTON_ITERATIONS_ASSUMED = 3.0
+REFRESHES_ASSUMED = 0.05
 
 
 #: the largest n whose workspace holds the dense Jacobian and its factors (2 n^2 floats: 64 MiB at 2048); above
@@ -153,8 +163,13 @@ DENSE_MAX_N = 2048
 LAPACK_MIN_N = 24
 
 
-#: fixed-point iterations allowed per step, per Newton iteration allowed (``max_iter``)
+#: fixed-point iterations allowed per step, per Newton iteration allowed (``max_iter``), where Newton is not
+#: available (n > ``DENSE_MAX_N``) or not wanted (``FIXED_POINT_ONLY``)
 FIXED_POINT_ITERATIONS = 8
+
+
+#: the running averages of a Newton step's iterations and refreshes follow each new step with this weight
+COST_WEIGHT = 0.125
 
 
 #: in Newton mode the fixed point is tried again after this many steps, the interval doubling after each failed
@@ -176,13 +191,16 @@ WN_FACTORED = 2  # 1: the LU factors of A = I - h/2 D xi at WN_LU_H are valid
 WN_LU_H = 3  # the step the factors were taken with
 WN_LAPACK = 4  # 1: the factors are LAPACK's (``lapack_solve``), 0: ``lu_factor``'s
 WN_MODE = 5  # 1: the next step starts with the fixed point, 0: with Newton
-WN_RATE = 6  # the last fixed-point contraction rate measured
+WN_RATE = 6  # the last fixed-point contraction rate measured (the geometric mean over the step)
 WN_PROBE = 7  # Newton mode: steps before the fixed point is tried again
 WN_BACKOFF = 8  # the interval between those tries
 WN_KAPPA = 9  # the damped step's kappa, |D (eps D grad S)|_inf, valid where WN_KAPPA_VALID is 1
 WN_KAPPA_VALID = 10
 WN_SOLVER = 11  # AUTO, NEWTON_ONLY or FIXED_POINT_ONLY (set by the caller)
-WN_HEADER = 12
+WN_NEWTON_ITERATIONS = 12  # the running average of a Newton step's iterations (0: none measured yet)
+WN_FIXED_POINT_ITERATIONS = 13  # the iterations of the last fixed-point step
+WN_REFRESHES = 14  # the running average of a Newton step's refreshes (the first step's not counted)
+WN_HEADER = 16
 V_DX1, V_DX2, V_DX3 = 0, 1, 2  # the last three increments
 V_NEW = 3  # the new state
 V_MID = 4  # the midpoint, and scratch of the field's Jacobian
@@ -559,8 +577,9 @@ def _iterate(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, wo
     ``newton``, else the fixed point ``y <- x + h F(x, y)`` (the same iteration with A = I).  Returns
     ``(status, H(y), S(y), iterations, evaluations, rate, culprit)``: ``rate`` is the first contraction rate
     measured above round-off (Newton: how stale the factors are), or the geometric mean of the rates measured
-    above the floor of round-off (fixed point: how fast it converges).  A fixed point whose mean rate exceeds
-    ``give_up`` from its second measured rate on stops (``NEWTON_FAILED``): another solver will do better."""
+    above the floor of round-off but the first (fixed point: how fast it converges; the first ratio can be a
+    transient growth, where the Jacobian is far from normal).  A fixed point whose mean rate exceeds ``give_up``
+    over two ratios or more stops (``NEWTON_FAILED``): another solver will do better."""
     n = x.shape[0]
     y, F, r = vector(work, V_NEW, n), vector(work, V_F, n), vector(work, V_R, n)
     previous, best, rate, measured, reference = np.inf, np.inf, 0.0, 0, np.inf
@@ -597,12 +616,13 @@ def _iterate(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, wo
             p = model.params
             return OK, model.H(y, p), model.S(y, p), iteration, iteration + 1, rate, UNKNOWN
         if not newton and iteration >= 2 and previous > floor:  # a rate above the noise of the quotients
-            if measured == 0:
-                reference = previous
             measured += 1
-            rate = (error / reference) ** (1.0 / measured)  # the mean rate: one slow iteration is not the rate
-            if measured >= 2 and rate > give_up:
-                break
+            if measured == 1:  # the first ratio is a transient (a non-normal Jacobian's: s of the pendula)
+                reference = error
+            else:
+                rate = (error / reference) ** (1.0 / (measured - 1))  # the mean rate since
+                if measured >= 3 and rate > give_up:
+                    break
         best = min(best, error)
         previous = error
     return NEWTON_FAILED, H_y, S_y, iteration, iteration, max(rate, previous), UNKNOWN
@@ -625,38 +645,84 @@ def _start(model, eps, hamiltonian, damped, x, h, work):
 
 
 @inner
-def choose_solver(work, n, model):
-    """``(fixed point first, give_up)`` for this step.  Where the workspace forces a solver (``WN_SOLVER``), that
-    one.  Where no dense Jacobian fits (n > ``DENSE_MAX_N``) or the operators are actions and n exceeds
-    ``MATRIX_FREE_NEWTON_N`` (a Jacobian costs n field evaluations and O(n^3), the fixed point O(cost of the
-    field) per iteration): the fixed point while it contracts below ``THETA_MATRIX_FREE``.  Otherwise the fixed
-    point where the last steps' contracted below ``THETA_FIXED_POINT`` (``WN_MODE``), and once every
-    ``WN_BACKOFF`` Newton steps (a probe, given a history to start from); Newton else.  Counts and rates only,
-    never timings: a run is reproducible bit for bit."""
-    forced = work[WN_SOLVER]
-    if forced == FIXED_POINT_ONLY or (forced == NEWTON_ONLY and n > DENSE_MAX_N):
-        return True, np.inf
-    if forced == NEWTON_ONLY:
-        return False, np.inf
-    if n > DENSE_MAX_N or (model.actions != 0 and n > MATRIX_FREE_NEWTON_N):
-        return True, THETA_MATRIX_FREE
-    if work[WN_MODE] > 0.0 or (work[WN_PROBE] <= 0.0 and work[WN_HISTORY] > 0.0):
-        return True, THETA_FIXED_POINT
-    return False, np.inf
+def newton_weight(model, n):
+    """The cost of a Newton iteration in fixed-point iterations: ``1 + 2 n^2 / c_f``, ``c_f`` the modelled cost
+    of the field (``FIELD_COST_MATRIX``, ``FIELD_COST_ACTION``)."""
+    field = FIELD_COST_ACTION * n if model.actions != 0 else FIELD_COST_MATRIX * n * n
+    return 1.0 + 2.0 * n * n / field
 
 
 @inner
-def after_fixed_point(work, status, rate, give_up):
-    """The mode after a fixed-point attempt: kept where it converged at a rate within ``give_up``; else Newton,
-    the fixed point tried again after twice the last interval (``PROBE_MIN`` to ``PROBE_MAX``)."""
+def refresh_cost(model, n):
+    """A refresh in field evaluations: n + 1 of them and the factorisation, ``2 n^3 / 3`` flops."""
+    field = FIELD_COST_ACTION * n if model.actions != 0 else FIELD_COST_MATRIX * n * n
+    return n + 1.0 + 2.0 * n * n * n / (3.0 * field)
+
+
+@inner
+def newton_cost(work, n, model):
+    """The cost of a Newton step in field evaluations: its iterations (running average, ``WN_NEWTON_ITERATIONS``)
+    times ``newton_weight`` and its refreshes (``WN_REFRESHES``) times ``refresh_cost``; before any is measured,
+    ``NEWTON_ITERATIONS_ASSUMED`` and ``REFRESHES_ASSUMED``."""
+    measured = work[WN_NEWTON_ITERATIONS] > 0.0
+    iterations = work[WN_NEWTON_ITERATIONS] if measured else NEWTON_ITERATIONS_ASSUMED
+    refreshes = work[WN_REFRESHES] if measured else REFRESHES_ASSUMED
+    return iterations * newton_weight(model, n) + refreshes * refresh_cost(model, n)
+
+
+@inner
+def choose_solver(work, n, model, max_iter):
+    """``(fixed point first, its iterations allowed)`` for this step, from counts and rates only (never timings:
+    a run is reproducible bit for bit).
+
+    * A solver the workspace forces (``WN_SOLVER``), the fixed point with ``FIXED_POINT_ITERATIONS max_iter``.
+    * No dense Jacobian (n > ``DENSE_MAX_N``): the fixed point, as many.
+    * The fixed point where the last one cost fewer field evaluations than a Newton step (``newton_cost``;
+      ``WN_MODE``), and, in Newton mode, once every ``WN_BACKOFF`` steps given a history (a probe); allowed as
+      many iterations as a Newton step costs.  The first step: the fixed point for n > ``FIRST_NEWTON_N`` (a
+      first Jacobian costs n field evaluations and O(n^3)), Newton otherwise.
+    """
+    forced = work[WN_SOLVER]
+    if forced == FIXED_POINT_ONLY or n > DENSE_MAX_N:
+        return True, FIXED_POINT_ITERATIONS * max_iter
+    if forced == NEWTON_ONLY:
+        return False, 0
+    affordable = int(np.ceil(newton_cost(work, n, model)))
+    if work[WN_NEWTON_ITERATIONS] == 0.0 and work[WN_FIXED_POINT_ITERATIONS] == 0.0:  # the first step
+        return n > FIRST_NEWTON_N, affordable
+    if work[WN_MODE] > 0.0 or (work[WN_PROBE] <= 0.0 and work[WN_HISTORY] > 0.0):
+        return True, affordable
+    return False, 0
+
+
+@inner
+def after_fixed_point(work, n, model, status, iterations, rate):
+    """The mode after a fixed-point attempt: kept where it converged in no more field evaluations than a Newton
+    step costs; else Newton, the fixed point tried again after twice the last interval (``PROBE_MIN`` to
+    ``PROBE_MAX``)."""
     work[WN_RATE] = rate
-    if status == OK and rate <= give_up:
+    work[WN_FIXED_POINT_ITERATIONS] = iterations
+    if status == OK and iterations <= newton_cost(work, n, model):
         work[WN_MODE] = 1.0
         work[WN_BACKOFF] = PROBE_MIN
         return
     work[WN_MODE] = 0.0
     work[WN_BACKOFF] = min(PROBE_MAX, max(PROBE_MIN, 2.0 * work[WN_BACKOFF]))
     work[WN_PROBE] = work[WN_BACKOFF]
+
+
+@inner
+def after_newton(work, iterations, refreshes, probed):
+    """The running averages of a Newton step's iterations and refreshes (the first step's refresh, an investment
+    of the steps after it, is not counted)."""
+    if work[WN_NEWTON_ITERATIONS] == 0.0:
+        work[WN_NEWTON_ITERATIONS] = iterations
+        work[WN_REFRESHES] = REFRESHES_ASSUMED
+    else:
+        work[WN_NEWTON_ITERATIONS] += COST_WEIGHT * (iterations - work[WN_NEWTON_ITERATIONS])
+        work[WN_REFRESHES] += COST_WEIGHT * (refreshes - work[WN_REFRESHES])
+    if not probed:
+        work[WN_PROBE] -= 1.0
 
 
 @hot
@@ -676,7 +742,7 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
     y = vector(work, V_NEW, n)
     evaluations, iterations = 0, 0
     history = work[WN_HISTORY] > 0.0 and work[WN_H] == h
-    fixed_point, give_up = choose_solver(work, n, model)
+    fixed_point, cap = choose_solver(work, n, model, max_iter)
     status, H_y, S_y, theta, culprit = NEWTON_FAILED, np.nan, np.nan, 0.0, UNKNOWN
     newton_used = False
     if fixed_point:
@@ -688,23 +754,24 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
         else:
             axpy_into(y, h, field_into(vector(work, V_K1, n), model, eps_step, hamiltonian, x), x)
             evaluations += 1
-        cap = FIXED_POINT_ITERATIONS * max_iter
         status, H_y, S_y, it, ev, theta, culprit = _iterate(
-            kind, cap, coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, False, give_up
+            kind, max(cap, 2), coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, False, THETA_DIVERGE
         )
         iterations += it
         evaluations += ev
         if work[WN_SOLVER] == AUTO:
-            after_fixed_point(work, status, theta, give_up)
+            after_fixed_point(work, n, model, status, it, theta)
     if status != OK and n <= DENSE_MAX_N and work[WN_SOLVER] != FIXED_POINT_ONLY:
         newton_used = True
         fresh = not (history and work[WN_FACTORED] > 0.0 and work[WN_LU_H] == h)
+        newton_iterations, refreshes = 0, 0
         for attempt in range(2):
             if attempt == 1 and fresh:
                 break
             if fresh or attempt == 1:
                 _start(model, eps, hamiltonian, damped, x, h, work)
                 evaluations += n + 1
+                refreshes += 1
                 fresh = True
             else:
                 predict(work, n, y, x)
@@ -713,11 +780,12 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
                 kind, max_iter, coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, True, np.inf
             )
             iterations += it
+            newton_iterations += it
             evaluations += ev
             if status != NEWTON_FAILED:
                 break
-        if not fixed_point:
-            work[WN_PROBE] -= 1.0
+        if work[WN_SOLVER] == AUTO:
+            after_newton(work, newton_iterations, refreshes, fixed_point)
     if status != OK:
         work[WN_HISTORY] = 0.0
         return StepResult(y, comp, H_y, S_y, status, iterations, evaluations, theta, culprit)
