@@ -696,11 +696,10 @@ def choose_solver(work, n, model, max_iter):
 
 
 @inner
-def after_fixed_point(work, n, model, status, iterations, rate):
+def after_fixed_point(work, n, model, status, iterations):
     """The mode after a fixed-point attempt: kept where it converged in no more field evaluations than a Newton
     step costs; else Newton, the fixed point tried again after twice the last interval (``PROBE_MIN`` to
     ``PROBE_MAX``)."""
-    work[WN_RATE] = rate
     work[WN_FIXED_POINT_ITERATIONS] = iterations
     if status == OK and iterations <= newton_cost(work, n, model):
         work[WN_MODE] = 1.0
@@ -759,8 +758,9 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
         )
         iterations += it
         evaluations += ev
+        work[WN_RATE] = theta
         if work[WN_SOLVER] == AUTO:
-            after_fixed_point(work, n, model, status, it, theta)
+            after_fixed_point(work, n, model, status, it)
     if status != OK and n <= DENSE_MAX_N and work[WN_SOLVER] != FIXED_POINT_ONLY:
         newton_used = True
         fresh = not (history and work[WN_FACTORED] > 0.0 and work[WN_LU_H] == h)
