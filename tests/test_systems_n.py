@@ -509,7 +509,7 @@ def test_the_metric_is_symmetric_semidefinite_and_annihilates_grad_H(case):
     D, gh = system.D(x), system.grad_H(x)
     np.testing.assert_array_equal(D, D.T)
     size = np.abs(D) @ np.abs(gh)
-    if system.metric == layout.PAPER_METRIC:  # g's diagonal rounds at |grad H|^2, however small it is after cancelling
+    if system.metric == layout.PAPER_METRIC:  # g's diagonal is a difference of terms of size |grad H|^2
         size = size + (gh @ gh) * np.abs(gh).sum()
     assert np.all(np.abs(D @ gh) <= 4 * system.dim * EPS * size + 1e-300)
     eigenvalues = np.linalg.eigvalsh(D) * system.direction
@@ -757,3 +757,146 @@ def test_the_flows_reach_DESIGN_RNs_limits():
     np.testing.assert_allclose(end(gas, x0, 200.0), gas_containers_limit(gas.E(x0)), atol=1e-7)
     euler, x0 = euler_zeitlin(5), euler_initial_state(5)
     assert euler.S(end(euler, x0, 10.0)) == pytest.approx(1.1375, rel=1e-8)
+
+
+# -- operators given as actions ------------------------------------------------------------------------------
+@numba.njit
+def _P_apply(x, v, p):
+    """``_P`` as an action: a rotation in (x0, x1)."""
+    out = np.zeros(x.shape[0])
+    out[0], out[1] = v[1], -v[0]
+    return out
+
+
+@numba.njit
+def _metric_apply(x, v, p):
+    """The paper's g as an action: ``(x . v) x - |x|^2 v``."""
+    return (x @ v) * x - (x @ x) * v
+
+
+@numba.njit
+def _symmetric_P_apply(x, v, p):
+    out = np.zeros(x.shape[0])
+    out[0], out[1] = v[1], v[0]
+    return out
+
+
+@numba.njit
+def _short_P_apply(x, v, p):
+    return np.zeros(x.shape[0] - 1)
+
+
+@numba.njit
+def _matrix_P_apply(x, v, p):
+    return np.zeros((x.shape[0], x.shape[0]))
+
+
+@numba.njit
+def _wrong_sign_metric_apply(x, v, p):
+    return (x @ x) * v - (x @ v) * x
+
+
+def _fish_action(**overrides):
+    arguments = dict(H=_H, grad_H=_grad_H, S=_S, grad_S=_grad_S, P_apply=_P_apply, dim=4)
+    arguments.update(overrides)
+    return MetriplecticSystemN(**arguments)
+
+
+def test_operators_given_as_actions_are_the_same_system():
+    """P and the metric as actions give the matrices' field, D, P (formed column by column) and the kernels' one
+    numba type, with the unused forms as placeholders."""
+    matrices = _fish(metric=_metric, eps=0.3)
+    actions = _fish_action(metric_apply=_metric_apply, eps=0.3)
+    assert matrices.actions == 0 and actions.actions == layout.P_ACTION | layout.M_ACTION
+    assert actions.metric == layout.USER_METRIC and "metric=user" in repr(actions)
+    X = np.random.default_rng(6).normal(size=(3, 4))
+    for method in ("xi", "xi_P", "xi_g", "dS_dt", "P", "D"):
+        np.testing.assert_allclose(getattr(actions, method)(X), getattr(matrices, method)(X), rtol=1e-14, atol=1e-15)
+    assert numba.typeof(actions.model) == numba.typeof(matrices.model) == numba.typeof(damped_pendula(2).model)
+    pendula, matrix_pendula = damped_pendula(3), damped_pendula(3, form="matrix")
+    assert pendula.actions == layout.P_ACTION | layout.M_ACTION and matrix_pendula.actions == 0
+    Y = np.random.default_rng(7).normal(size=(4, 7))
+    for method in ("L", "M", "xi", "xi_P", "xi_g", "dS_dt"):
+        np.testing.assert_allclose(getattr(pendula, method)(Y), getattr(matrix_pendula, method)(Y), rtol=1e-15)
+
+
+@pytest.mark.parametrize(
+    "overrides, error, match",
+    [
+        ({"P": _P}, TypeError, r"give `P` \(a matrix function of \(x, params\)\) or `P_apply` .*not both"),
+        ({"P_apply": None}, TypeError, r"give `P`, the Poisson tensor .* or `P_apply`, its action"),
+        ({"metric": _metric, "metric_apply": _metric_apply}, TypeError, r"give `metric` .* or `metric_apply`"),
+        ({"P_apply": lambda x, v, p: v}, TypeError, r"(?s)`P_apply` must be a numba-jitted function.*\(x, v, params\)"),
+        ({"P_apply": _P}, TypeError, r"`P_apply` does not compile for \(x, v, params\)"),
+        ({"P_apply": _matrix_P_apply}, TypeError, r"`P_apply` must return a contiguous float64 array of length n"),
+        ({"P_apply": _short_P_apply}, ValueError, r"`P_apply` must return shape \(4,\); at x = .* shape \(3,\)"),
+        ({"P_apply": _symmetric_P_apply}, ValueError, r"`P_apply` must be skew-symmetric \(P = -P\^T\); at x ="),
+        (
+            {"metric_apply": _wrong_sign_metric_apply},
+            ValueError,
+            r"`metric_apply` must be negative semidefinite \(a metric of the wrong sign: S would rise\)",
+        ),
+    ],
+)
+def test_construction_errors_name_the_action(overrides, error, match):
+    with pytest.raises(error, match=match):
+        _fish_action(**overrides)
+
+
+@numba.njit
+def _pendula_L_not_skew(x, v, p):
+    out = np.zeros(x.shape[0])
+    N = (x.shape[0] - 1) // 2
+    for i in range(N):
+        out[i] = v[N + i]
+        out[N + i] = v[i]
+    return out
+
+
+@numba.njit
+def _pendula_L_moving_S(x, v, p):
+    out = np.zeros(x.shape[0])
+    N = (x.shape[0] - 1) // 2
+    for i in range(N):
+        out[i] = v[N + i]
+        out[N + i] = -v[i]
+    out[0] += v[-1]
+    out[-1] -= v[0]
+    return out
+
+
+@numba.njit
+def _pendula_M_negative(x, v, p):
+    out = np.zeros(x.shape[0])
+    N = (x.shape[0] - 1) // 2
+    for i in range(N):
+        c = v[N + i] - x[N + i] * v[-1]
+        out[N + i] = -c
+        out[-1] += x[N + i] * c
+    return out
+
+
+@pytest.mark.parametrize("N", [3, 40])  # n = 7: the matrix by columns; n = 81: random probes
+@pytest.mark.parametrize(
+    "overrides, match",
+    [
+        ({"L_apply": _pendula_L_not_skew}, r"`L_apply` must be skew-symmetric"),
+        ({"L_apply": _pendula_L_moving_S}, r"`L_apply` must satisfy L grad S = 0 \(S must be a Casimir of it\)"),
+        ({"M_apply": _pendula_M_negative}, r"`M_apply` must be positive semidefinite"),
+    ],
+)
+def test_generic_actions_are_checked_by_columns_or_by_probes(N, overrides, match):
+    pendula = damped_pendula(N)
+    functions = pendula.functions
+    arguments = dict(E=functions.H, grad_E=functions.grad_H, S=functions.S, grad_S=functions.grad_S)
+    arguments.update(L_apply=functions.P_apply, M_apply=functions.M_apply, params=[0.5], dim=2 * N + 1)
+    arguments.update(overrides)
+    with pytest.raises(ValueError, match=match):
+        GenericSystem(**arguments)
+    with pytest.raises(TypeError, match=r"give `M`, the friction matrix .* or `M_apply`"):
+        GenericSystem(**{**arguments, "M_apply": None})
+
+
+def test_damped_pendula_form_is_checked():
+    with pytest.raises(ValueError, match=r"`form` must be one of \('action', 'matrix'\); got 'sparse'"):
+        damped_pendula(2, form="sparse")

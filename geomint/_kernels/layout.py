@@ -209,6 +209,13 @@ Model = namedtuple("Model", "H grad_H S grad_S J params origin")
 #: friction matrix, positive semidefinite, M grad E = 0), never called where it is ``PAPER_METRIC``.  The field is
 #: ``P grad H + eps D grad S`` with D = g or M; ``direction`` is -1.0 where S never rises (Fish), +1.0 where it
 #: never falls (GENERIC, eps = 1).  ``origin`` holds H(0), S(0) (0 where not finite): the constant terms.
-ModelN = namedtuple("ModelN", "H grad_H S grad_S P M params metric direction origin")
+#: ``P_apply``, ``M_apply``: the same operators as actions ``(x, v, params) -> P(x) v`` (length-n arrays);
+#: ``actions`` says which form each operator is native in (``P_ACTION``, ``M_ACTION`` bits): the kernels call
+#: the action where its bit is set and the matrix otherwise.  The unused form of each is a placeholder of the
+#: same type (never called), so that every system in R^n has one numba type.
+ModelN = namedtuple("ModelN", "H grad_H S grad_S P M params metric direction origin P_apply M_apply actions")
 PAPER_METRIC = 0
 USER_METRIC = 1
+#: bits of ``ModelN.actions``: P (GENERIC's L) given as an action, the metric (G, GENERIC's M) given as an action
+P_ACTION = 1
+M_ACTION = 2

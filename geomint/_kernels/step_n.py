@@ -16,30 +16,63 @@ gradients (Gonzalez, AVF, symmetrized Itoh-Abe), 1 for Itoh-Abe.  In R^3,
 Reference: docs/engine_rn.md; the scheme for R^3 is Fish's construction with
 Gonzalez's discrete gradient (docs/theory.md).
 
-**Solving the step.**  Simplified Newton with the matrix
-``A = I - (h/2) D xi`` (the continuous field's Jacobian, by differences at the
-state, LU-factored once and kept in the workspace across iterations and steps
-while the iteration contracts, refreshed where it does not or where ``h``
-changes: the rules of SUNDIALS and RADAU5), from a predictor (the linearly
-implicit step at a fresh Jacobian, else the increment extrapolated from the
-last three).  The iteration stops at round-off: when the correction is within
-a few ulps of the increment, or stops shrinking.  **Exact under a stopped
+**Solving the step.**  Two solvers, chosen per step by how the iteration
+contracts (``choose_solver``; docs/engine_rn.md, "Solving the step"):
+
+* simplified Newton with the matrix ``A = I - (h/2) D xi`` (the continuous
+  field's Jacobian, by differences at the state: n field evaluations, each in
+  the operators' native form), LU-factored in place (by hand below
+  ``LAPACK_MIN_N``, by LAPACK's ``dgetrf`` from it) and kept in the workspace
+  across iterations and steps while the iteration contracts, refreshed where
+  it does not or where ``h`` changes (the rules of SUNDIALS and RADAU5);
+  O(n^2) per iteration, O(n^3) per refresh;
+* the fixed-point iteration ``x' <- x + h F(x, x')``, no Jacobian: O(cost of
+  the field) per iteration, converging linearly at the rate ``~ (h/2) |D xi|``:
+  kept while its iterations cost less than Newton's (its rate makes its count:
+  ``log(round-off / start error) / log(rate)``), Newton taking over where they
+  do not or where it stops contracting.
+
+Both start from a predictor (the increment extrapolated from the last three;
+without a history, the linearly implicit step at a fresh Jacobian for Newton,
+the explicit Euler step for the fixed point) and stop at round-off: when the
+correction is within a few ulps of the increment, its contraction bounds the
+remaining error below that, or it stops shrinking.  **Exact under a stopped
 solve**: a solve stopped with residual r moves H by ``dgH . r``; the step
 then moves along ``d = Pi_S grad H(x')`` (which leaves S unchanged to first
 order) to ``H(x') = H(x0)`` by scalar Newton (``to_level``), and, where S has
 moved against its direction by more than round-off, along
 ``Pi_H grad S(x')`` back to S(x) (which leaves H unchanged to first order).
-Both moves are of the size of the residual, so they keep the order.  A step
-whose result still misses H by ``ACCEPT_ULPS`` of its terms, or S by
-``ACCEPT_S_ULPS``, fails (``NEWTON_FAILED``) and the run stops with the state
-before it.
+Both moves are of the size of the residual, so they keep the order, whichever
+solver stopped.  A step whose result still misses H by ``ACCEPT_ULPS`` of its
+terms, or S by ``ACCEPT_S_ULPS``, fails (``NEWTON_FAILED``) and the run stops
+with the state before it.
+
+**Damped** (``DampedGonzalez``): the dissipation is scaled by
+``phi = 1 / sqrt(1 + (h kappa / 2)^2)``, ``kappa = |D (eps D grad S)(x)|_inf``
+(as ``dg_step.damping_factor`` in R^3), so that the midpoint-type step damps a
+stiff dissipative mode by ``(1 - w) / (1 + w)``, ``w -> 1``, instead of
+reflecting it; ``phi = 1 + O(h^2)`` keeps order 2 and any ``phi > 0`` keeps H
+exact and S monotone.  kappa comes with the Jacobian (each refresh
+differences the Hamiltonian and dissipative parts apart, at no extra field
+evaluation) and is kept until the next refresh; a run that never refreshes
+(fixed point) takes it once by differences (n evaluations of the dissipative
+part).
 """
 
 import numpy as np
 from numba import njit
 
 from .discrete_gradient import SWITCH
-from .field_n import field_into, jacobian_into, non_finite_culprit_n
+from .field_n import (
+    apply_M,
+    apply_P,
+    dissipative_into,
+    dissipative_norm,
+    field_into,
+    jacobian_into,
+    jacobian_parts_into,
+    non_finite_culprit_n,
+)
 from .jit import hot, inner
 from .layout import (
     AVF,
@@ -56,16 +89,17 @@ from .layout import (
     StepResult,
 )
 from .vecn import (
+    LAPACK_INT,
     abs_dot,
     all_finite,
     axpy_into,
     copy_into,
     dot,
+    lapack_factor,
+    lapack_solve,
     lu_factor,
     lu_solve,
-    matvec_into,
     norm_inf,
-    norm_rows,
     remove_along,
 )
 
@@ -98,11 +132,76 @@ CORRECTION_ROUNDS = 3
 MAX_SYMMETRIZED_DIM = 5
 
 
+#: the solvers (``choose_solver``) compare costs in units of one evaluation of the discrete field, modelled as
+#: ``FIELD_COST_MATRIX n^2`` flops where P and M are matrices (forming, applying and sizing P) and
+#: ``FIELD_COST_ACTION n`` where one of them is an action; a Newton iteration adds the solve, 2 n^2 flops, a refresh
+#: n + 1 field evaluations and the factorisation, 2 n^3 / 3 flops (docs/engine_rn_speed.md: the calibration)
+FIELD_COST_MATRIX = 4.0
+FIELD_COST_ACTION = 100.0
+
+
+#: a fixed point whose mean contraction rate exceeds this stops (it is not contracting usefully)
+THETA_DIVERGE = 0.9
+
+
+#: above this n the first step iterates the fixed point (a first Jacobian costs n field evaluations and O(n^3));
+#: at or below it, Newton
+FIRST_NEWTON_N = 64
+
+
+#: Newton iterations per step, and refreshes per Newton step, assumed before any are measured (SUNDIALS refreshes
+#: every 20 steps)
+NEWTON_ITERATIONS_ASSUMED = 3.0
+REFRESHES_ASSUMED = 0.05
+
+
+#: the largest n whose workspace holds the dense Jacobian and its factors (2 n^2 floats: 64 MiB at 2048); above
+#: it the step iterates the fixed point only
+DENSE_MAX_N = 2048
+
+
+#: the LU factors by LAPACK's dgetrf from this n on, by hand below (docs/engine_rn_speed.md)
+LAPACK_MIN_N = 24
+
+
+#: fixed-point iterations allowed per step, per Newton iteration allowed (``max_iter``), where Newton is not
+#: available (n > ``DENSE_MAX_N``) or not wanted (``FIXED_POINT_ONLY``)
+FIXED_POINT_ITERATIONS = 8
+
+
+#: the running averages of a Newton step's iterations and refreshes follow each new step with this weight
+COST_WEIGHT = 0.125
+
+
+#: in Newton mode the fixed point is tried again after this many steps, the interval doubling after each failed
+#: try up to ``PROBE_MAX``
+PROBE_MIN = 8
+PROBE_MAX = 512
+
+
+# -- the solver a workspace asks for (``WN_SOLVER``; a new workspace holds 0: chosen per step) -------------------
+AUTO = 0
+NEWTON_ONLY = 1
+FIXED_POINT_ONLY = 2
+
+
 # -- the workspace of a run in R^n: a header, vectors of length n, the Jacobian and its LU factors ---------------
-WN_H = 0  # the step the history and the factors were taken with
+WN_H = 0  # the step the history was taken with
 WN_HISTORY = 1  # increments in the history (0..3)
-WN_FACTORED = 2  # 1: the LU factors of A = I - h/2 D xi at WN_H are valid
-WN_HEADER = 3
+WN_FACTORED = 2  # 1: the LU factors of A = I - h/2 D xi at WN_LU_H are valid
+WN_LU_H = 3  # the step the factors were taken with
+WN_LAPACK = 4  # 1: the factors are LAPACK's (``lapack_solve``), 0: ``lu_factor``'s
+WN_MODE = 5  # 1: the next step starts with the fixed point, 0: with Newton
+WN_RATE = 6  # the last fixed-point contraction rate measured (the geometric mean over the step)
+WN_PROBE = 7  # Newton mode: steps before the fixed point is tried again
+WN_BACKOFF = 8  # the interval between those tries
+WN_KAPPA = 9  # the damped step's kappa, |D (eps D grad S)|_inf, valid where WN_KAPPA_VALID is 1
+WN_KAPPA_VALID = 10
+WN_SOLVER = 11  # AUTO, NEWTON_ONLY or FIXED_POINT_ONLY (set by the caller)
+WN_NEWTON_ITERATIONS = 12  # the running average of a Newton step's iterations (0: none measured yet)
+WN_FIXED_POINT_ITERATIONS = 13  # the iterations of the last fixed-point step
+WN_REFRESHES = 14  # the running average of a Newton step's refreshes (the first step's not counted)
+WN_HEADER = 16
 V_DX1, V_DX2, V_DX3 = 0, 1, 2  # the last three increments
 V_NEW = 3  # the new state
 V_MID = 4  # the midpoint, and scratch of the field's Jacobian
@@ -111,14 +210,17 @@ V_F = 7  # the discrete field
 V_R = 8  # the residual / the Newton correction
 V_A, V_B, V_C = 9, 10, 11  # scratch
 V_K1, V_K2, V_K3, V_K4 = 12, 13, 14, 15  # RK4 stages
-V_PIVOTS = 16
-N_VECTORS = 17
+V_PIVOTS = 16  # the pivots of the factors (LAPACK's: integers in the same space)
+V_G0 = 17  # the dissipative part at x (damped step)
+V_ROWS = 18  # scratch (row sums)
+N_VECTORS = 19
 
 
 @njit(inline="always")  # called from Python (the run's workspace) and from the kernels
 def work_size(n):
-    """Floats of the workspace of a run in R^n: header, ``N_VECTORS`` vectors, D xi and the LU factors."""
-    return WN_HEADER + N_VECTORS * n + 2 * n * n
+    """Floats of the workspace of a run in R^n (one slot): header, ``N_VECTORS`` vectors and, for n up to
+    ``DENSE_MAX_N``, D xi and the LU factors."""
+    return WN_HEADER + N_VECTORS * n + (2 * n * n if n <= DENSE_MAX_N else 0)
 
 
 @inner
@@ -138,6 +240,12 @@ def jacobian_matrix(work, n):
 def lu_matrix(work, n):
     start = WN_HEADER + N_VECTORS * n + n * n
     return work[start : start + n * n].reshape((n, n))
+
+
+@inner
+def lapack_pivots(work, n):
+    """The pivots of LAPACK's factors: ``LAPACK_INT`` integers in the space of the vector ``V_PIVOTS``."""
+    return vector(work, V_PIVOTS, n).view(LAPACK_INT)[:n]
 
 
 @inner
@@ -264,8 +372,10 @@ def _symmetrized(out, F, grad_F, params, x, y, f_old, f_new, vertex, mid, order,
 @inner
 def discrete_field_n(kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, y, gain_h, gain_s, work):
     """``F(x, y)`` of the module docstring into the workspace's ``V_F``; returns ``(H(y), S(y), noise, |P|, |M|)``
-    with ``noise`` the round-off bound of the discrete gradients' quotients and the infinity norms of ``P(xbar)``
-    and ``M(xbar)`` (0 where not evaluated), from which the next iterate's gains are taken (``gains``)."""
+    with ``noise`` the round-off bound of the discrete gradients' quotients and the sizes of ``P(xbar)`` and
+    ``M(xbar)`` (``field_n.apply_P``: the infinity norm of a matrix, the gain of an action on the vector it is
+    applied to; 0 where not evaluated), from which the next iterate's gains are taken (``gains``).  P and M are
+    applied in their native form: an action costs what it costs, a matrix O(n^2)."""
     n = x.shape[0]
     p = model.params
     dgh, dgs, F = vector(work, V_DGH, n), vector(work, V_DGS, n), vector(work, V_F, n)
@@ -286,9 +396,7 @@ def discrete_field_n(kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, y, gain
     norm_p, norm_m = 0.0, 0.0
     if hamiltonian:  # Pi_S P(xbar) Pi_S dgH
         remove_along(copy_into(a, dgh), dgs)
-        m = model.P(mid, p)
-        matvec_into(F, m, a)
-        norm_p = norm_rows(m)
+        norm_p = apply_P(model, mid, a, F, True)
         remove_along(F, dgs)
     if eps != 0.0:
         if model.metric == PAPER_METRIC:  # (dgH . dgS) dgH - |dgH|^2 dgS = -|dgH|^2 Pi_H dgS
@@ -297,9 +405,7 @@ def discrete_field_n(kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, y, gain
                 F[i] += eps * (c * dgh[i] - d * dgs[i])
         else:  # Pi_H M(xbar) Pi_H dgS
             remove_along(copy_into(a, dgs), dgh)
-            m = model.M(mid, p)
-            matvec_into(b, m, a)
-            norm_m = norm_rows(m)
+            norm_m = apply_M(model, mid, a, b, True)
             remove_along(b, dgh)
             for i in range(n):
                 F[i] += eps * b[i]
@@ -355,29 +461,89 @@ def to_level(model, y, value, target, energy, d, before, tolerance):
     return value, evaluations
 
 
-# -- the Jacobian and the predictor ------------------------------------------------------------------------------
+# -- the Jacobian, the damping and the predictor -----------------------------------------------------------------
 @inner
-def refresh(model, eps, hamiltonian, x, h, work):
+def damping(kappa, h):
+    """``phi = 1 / sqrt(1 + (h kappa / 2)^2)`` (``dg_step.damping_factor``), 1 where that is not finite."""
+    z = 0.5 * h * kappa
+    if not np.isfinite(z):
+        return 1.0
+    return 1.0 / np.sqrt(1.0 + z * z)
+
+
+@inner
+def damped_eps(damped, eps, h, work):
+    """The dissipation's factor of this step: ``eps phi`` with the workspace's kappa where ``damped``."""
+    return eps * damping(work[WN_KAPPA], h) if damped and eps != 0.0 else eps
+
+
+@inner
+def refresh(model, eps, hamiltonian, damped, x, h, work):
     """``D xi(x)`` by differences into the workspace and ``A = I - h/2 D xi`` factored; returns False where
-    ``A`` is singular.  Leaves ``xi(x)`` in ``V_K1``."""
+    ``A`` is singular.  Leaves ``xi(x)`` in ``V_K1``.  ``damped``: the Hamiltonian and dissipative parts are
+    differenced apart (the dissipative Jacobian in the factors' space until they are formed), kappa is taken
+    from the latter, and xi and D xi are those of the damped field ``P grad H + phi eps D grad S``."""
     n = x.shape[0]
-    f0 = field_into(vector(work, V_K1, n), model, eps, hamiltonian, x)
+    f0, g0 = vector(work, V_K1, n), vector(work, V_G0, n)
     jac = jacobian_matrix(work, n)
-    jacobian_into(jac, model, eps, hamiltonian, x, f0, vector(work, V_MID, n), vector(work, V_A, n))
+    shifted, column = vector(work, V_MID, n), vector(work, V_A, n)
+    if damped and eps != 0.0:
+        field_into(f0, model, 0.0, hamiltonian, x)
+        dissipative_into(g0, model, eps, x)
+        dis = lu_matrix(work, n)
+        kappa = jacobian_parts_into(jac, dis, model, eps, hamiltonian, x, f0, g0, shifted, column, vector(work, V_B, n))
+        work[WN_KAPPA], work[WN_KAPPA_VALID] = kappa, 1.0
+        phi = damping(kappa, h)
+        for i in range(n):
+            f0[i] += phi * g0[i]
+            for j in range(n):
+                jac[i, j] += phi * dis[i, j]
+    else:
+        field_into(f0, model, eps, hamiltonian, x)
+        jacobian_into(jac, model, eps, hamiltonian, x, f0, shifted, column)
     return factor(work, n, h)
 
 
 @inner
 def factor(work, n, h):
+    """``A = I - h/2 D xi`` from the kept Jacobian, factored in place: by hand below ``LAPACK_MIN_N``, by LAPACK
+    from it.  Returns False where A is singular."""
     jac, lu = jacobian_matrix(work, n), lu_matrix(work, n)
     for i in range(n):
         for j in range(n):
             lu[i, j] = -0.5 * h * jac[i, j]
         lu[i, i] += 1.0
-    ok = lu_factor(lu, vector(work, V_PIVOTS, n))
+    if n >= LAPACK_MIN_N:
+        ok = lapack_factor(lu, lapack_pivots(work, n))
+        work[WN_LAPACK] = 1.0
+    else:
+        ok = lu_factor(lu, vector(work, V_PIVOTS, n))
+        work[WN_LAPACK] = 0.0
     work[WN_FACTORED] = 1.0 if ok else 0.0
-    work[WN_H] = h
+    work[WN_LU_H] = h
     return ok
+
+
+@inner
+def solve(work, n, b):
+    """``b = A^-1 b`` (in place) with the kept factors."""
+    if work[WN_LAPACK] > 0.0:
+        lapack_solve(lu_matrix(work, n), lapack_pivots(work, n), b)
+    else:
+        lu_solve(lu_matrix(work, n), vector(work, V_PIVOTS, n), b)
+
+
+@inner
+def kappa_by_differences(model, eps, x, work):
+    """kappa (``WN_KAPPA``) for a step that holds no Jacobian: ``|D (eps D grad S)(x)|_inf`` by differences,
+    n + 1 evaluations of the dissipative part.  Returns the evaluations."""
+    n = x.shape[0]
+    g0 = dissipative_into(vector(work, V_G0, n), model, eps, x)
+    work[WN_KAPPA] = dissipative_norm(
+        model, eps, x, g0, vector(work, V_MID, n), vector(work, V_A, n), vector(work, V_ROWS, n)
+    )
+    work[WN_KAPPA_VALID] = 1.0
+    return n + 1
 
 
 @inner
@@ -406,15 +572,19 @@ def remember_n(work, n, y, x, h):
     work[WN_H] = h
 
 
-# -- the step ----------------------------------------------------------------------------------------------------
+# -- the solvers -------------------------------------------------------------------------------------------------
 @inner
-def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, work):
-    """Simplified Newton from the workspace's ``V_NEW`` (the start) with its factors; returns
-    ``(status, H(y), S(y), iterations, evaluations, first contraction rate, culprit)``."""
+def _iterate(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, work, newton, give_up):
+    """Iterate from the workspace's ``V_NEW`` (the start): simplified Newton with the kept factors where
+    ``newton``, else the fixed point ``y <- x + h F(x, y)`` (the same iteration with A = I).  Returns
+    ``(status, H(y), S(y), iterations, evaluations, rate, culprit)``: ``rate`` is the first contraction rate
+    measured above round-off (Newton: how stale the factors are), or the geometric mean of the rates measured
+    above the floor of round-off but the first (fixed point: how fast it converges; the first ratio can be a
+    transient growth, where the Jacobian is far from normal).  A fixed point whose mean rate exceeds ``give_up``
+    over two ratios or more stops (``NEWTON_FAILED``): another solver will do better."""
     n = x.shape[0]
     y, F, r = vector(work, V_NEW, n), vector(work, V_F, n), vector(work, V_R, n)
-    lu, pivots = lu_matrix(work, n), vector(work, V_PIVOTS, n)
-    previous, best, first_theta = np.inf, np.inf, 0.0
+    previous, best, rate, measured, reference = np.inf, np.inf, 0.0, 0, np.inf
     gain_h, gain_s = np.inf, np.inf  # the first iterate takes the gradients uncorrected
     H_y, S_y = np.nan, np.nan
     for iteration in range(1, max_iter + 1):
@@ -426,7 +596,8 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, wor
         gain_h, gain_s = gains(model, eps, h, vector(work, V_DGH, n), vector(work, V_DGS, n), norm_p, norm_m)
         for i in range(n):
             r[i] = (y[i] - x[i]) - h * F[i]
-        lu_solve(lu, pivots, r)
+        if newton:
+            solve(work, n, r)
         error = norm_inf(r)
         increment = 0.0
         for i in range(n):
@@ -435,8 +606,8 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, wor
         for i in range(n):
             y[i] -= r[i]
         theta = error / previous
-        if iteration == 2 and previous > 64.0 * resolution:  # a rate measured above round-off
-            first_theta = theta
+        if newton and iteration == 2 and previous > 64.0 * resolution:  # a rate measured above round-off
+            rate = theta
         if not np.isfinite(error) or error > 1e3 * (norm_inf(x) + increment + 1.0):
             break
         contracting = iteration > 1 and theta < 0.5 and theta / (1.0 - theta) * error <= resolution
@@ -445,26 +616,114 @@ def _newton(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, wor
         stalled = error >= 0.5 * best and (error <= floor or error <= SQRT_EPS * (norm_inf(x) + increment))
         if converged or stalled or error == 0.0:
             p = model.params
-            return OK, model.H(y, p), model.S(y, p), iteration, iteration + 1, first_theta, UNKNOWN
+            return OK, model.H(y, p), model.S(y, p), iteration, iteration + 1, rate, UNKNOWN
+        if not newton and iteration >= 2 and previous > floor:  # a rate above the noise of the quotients
+            measured += 1
+            if measured == 1:  # the first ratio is a transient (a non-normal Jacobian's: s of the pendula)
+                reference = error
+            else:
+                rate = (error / reference) ** (1.0 / (measured - 1))  # the mean rate since
+                if measured >= 3 and rate > give_up:
+                    break
         best = min(best, error)
         previous = error
-    return NEWTON_FAILED, H_y, S_y, max_iter, max_iter, previous, UNKNOWN
+    return NEWTON_FAILED, H_y, S_y, iteration, iteration, max(rate, previous), UNKNOWN
 
 
 @inner
-def _start(model, eps, hamiltonian, x, h, work):
+def _start(model, eps, hamiltonian, damped, x, h, work):
     """A fresh Jacobian at ``x`` and the linearly implicit start ``y = x + A^-1 h xi(x)``; False where A is
     singular (the start is then the explicit Euler step)."""
     n = x.shape[0]
-    ok = refresh(model, eps, hamiltonian, x, h, work)
+    ok = refresh(model, eps, hamiltonian, damped, x, h, work)
     y, f0 = vector(work, V_NEW, n), vector(work, V_K1, n)
     for i in range(n):
         y[i] = h * f0[i]
     if ok:
-        lu_solve(lu_matrix(work, n), vector(work, V_PIVOTS, n), y)
+        solve(work, n, y)
     for i in range(n):
         y[i] += x[i]
     return ok
+
+
+@inner
+def newton_weight(model, n):
+    """The cost of a Newton iteration in fixed-point iterations: ``1 + 2 n^2 / c_f``, ``c_f`` the modelled cost
+    of the field (``FIELD_COST_MATRIX``, ``FIELD_COST_ACTION``)."""
+    field = FIELD_COST_ACTION * n if model.actions != 0 else FIELD_COST_MATRIX * n * n
+    return 1.0 + 2.0 * n * n / field
+
+
+@inner
+def refresh_cost(model, n):
+    """A refresh in field evaluations: n + 1 of them and the factorisation, ``2 n^3 / 3`` flops."""
+    field = FIELD_COST_ACTION * n if model.actions != 0 else FIELD_COST_MATRIX * n * n
+    return n + 1.0 + 2.0 * n * n * n / (3.0 * field)
+
+
+@inner
+def newton_cost(work, n, model):
+    """The cost of a Newton step in field evaluations: its iterations (running average, ``WN_NEWTON_ITERATIONS``)
+    times ``newton_weight`` and its refreshes (``WN_REFRESHES``) times ``refresh_cost``; before any is measured,
+    ``NEWTON_ITERATIONS_ASSUMED`` and ``REFRESHES_ASSUMED``."""
+    measured = work[WN_NEWTON_ITERATIONS] > 0.0
+    iterations = work[WN_NEWTON_ITERATIONS] if measured else NEWTON_ITERATIONS_ASSUMED
+    refreshes = work[WN_REFRESHES] if measured else REFRESHES_ASSUMED
+    return iterations * newton_weight(model, n) + refreshes * refresh_cost(model, n)
+
+
+@inner
+def choose_solver(work, n, model, max_iter):
+    """``(fixed point first, its iterations allowed)`` for this step, from counts and rates only (never timings:
+    a run is reproducible bit for bit).
+
+    * A solver the workspace forces (``WN_SOLVER``), the fixed point with ``FIXED_POINT_ITERATIONS max_iter``.
+    * No dense Jacobian (n > ``DENSE_MAX_N``): the fixed point, as many.
+    * The fixed point where the last one cost fewer field evaluations than a Newton step (``newton_cost``;
+      ``WN_MODE``), and, in Newton mode, once every ``WN_BACKOFF`` steps given a history (a probe); allowed as
+      many iterations as a Newton step costs.  The first step: the fixed point for n > ``FIRST_NEWTON_N`` (a
+      first Jacobian costs n field evaluations and O(n^3)), Newton otherwise.
+    """
+    forced = work[WN_SOLVER]
+    if forced == FIXED_POINT_ONLY or n > DENSE_MAX_N:
+        return True, FIXED_POINT_ITERATIONS * max_iter
+    if forced == NEWTON_ONLY:
+        return False, 0
+    affordable = int(np.ceil(newton_cost(work, n, model)))
+    if work[WN_NEWTON_ITERATIONS] == 0.0 and work[WN_FIXED_POINT_ITERATIONS] == 0.0:  # the first step
+        return n > FIRST_NEWTON_N, affordable
+    if work[WN_MODE] > 0.0 or (work[WN_PROBE] <= 0.0 and work[WN_HISTORY] > 0.0):
+        return True, affordable
+    return False, 0
+
+
+@inner
+def after_fixed_point(work, n, model, status, iterations):
+    """The mode after a fixed-point attempt: kept where it converged in no more field evaluations than a Newton
+    step costs; else Newton, the fixed point tried again after twice the last interval (``PROBE_MIN`` to
+    ``PROBE_MAX``)."""
+    work[WN_FIXED_POINT_ITERATIONS] = iterations
+    if status == OK and iterations <= newton_cost(work, n, model):
+        work[WN_MODE] = 1.0
+        work[WN_BACKOFF] = PROBE_MIN
+        return
+    work[WN_MODE] = 0.0
+    work[WN_BACKOFF] = min(PROBE_MAX, max(PROBE_MIN, 2.0 * work[WN_BACKOFF]))
+    work[WN_PROBE] = work[WN_BACKOFF]
+
+
+@inner
+def after_newton(work, iterations, refreshes, probed):
+    """The running averages of a Newton step's iterations and refreshes (the first step's refresh, an investment
+    of the steps after it, is not counted)."""
+    if work[WN_NEWTON_ITERATIONS] == 0.0:
+        work[WN_NEWTON_ITERATIONS] = iterations
+        work[WN_REFRESHES] = REFRESHES_ASSUMED
+    else:
+        work[WN_NEWTON_ITERATIONS] += COST_WEIGHT * (iterations - work[WN_NEWTON_ITERATIONS])
+        work[WN_REFRESHES] += COST_WEIGHT * (refreshes - work[WN_REFRESHES])
+    if not probed:
+        work[WN_PROBE] -= 1.0
 
 
 @hot
@@ -472,33 +731,63 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
     """One step of the module docstring from ``x`` to the workspace's ``V_NEW``: a ``layout.StepResult`` whose
     ``x`` is that view (the loop copies it), ``comp`` passed through (no compensated summation in R^n).
 
-    ``H_x`` is the energy anchor (H(x0)), ``S_x`` S(x).  ``damped`` (a bool): ``DampedGonzalez``'s factor on
-    the dissipation (not offered in R^n yet: ``geomint.run.solve.check_in_rn`` refuses it).  The usual step
-    starts from the extrapolated increment with the kept factors; without a history, with another ``h``, or
-    where that start fails, from a fresh Jacobian and the linearly implicit start.
+    ``H_x`` is the energy anchor (H(x0)), ``S_x`` S(x).  ``damped`` (a bool): ``DampedGonzalez``'s factor phi on
+    the dissipation.  The solver is chosen by ``choose_solver``.  The fixed point starts from the extrapolated
+    increment (the explicit Euler step without a history); Newton from the extrapolated increment with the kept
+    factors, or, without a history, with another ``h``, or where that start fails, from a fresh Jacobian and
+    the linearly implicit start.  A fixed point that does not converge hands the step to Newton where the
+    workspace holds a dense Jacobian (n <= ``DENSE_MAX_N``).  Iterations of both count in ``iterations``.
     """
     n = x.shape[0]
     p = model.params
     y = vector(work, V_NEW, n)
-    evaluations = 0
-    fresh = not (work[WN_HISTORY] > 0.0 and work[WN_H] == h and work[WN_FACTORED] > 0.0)
-    status, H_y, S_y, iterations, theta, culprit = NEWTON_FAILED, np.nan, np.nan, 0, 0.0, UNKNOWN
-    for attempt in range(2):
-        if attempt == 1 and fresh:
-            break
-        if fresh or attempt == 1:
-            _start(model, eps, hamiltonian, x, h, work)
-            evaluations += n + 1
-            fresh = True
-        else:
+    evaluations, iterations = 0, 0
+    history = work[WN_HISTORY] > 0.0 and work[WN_H] == h
+    fixed_point, cap = choose_solver(work, n, model, max_iter)
+    status, H_y, S_y, theta, culprit = NEWTON_FAILED, np.nan, np.nan, 0.0, UNKNOWN
+    newton_used = False
+    if fixed_point:
+        if damped and eps != 0.0 and not work[WN_KAPPA_VALID] > 0.0:
+            evaluations += kappa_by_differences(model, eps, x, work)
+        eps_step = damped_eps(damped, eps, h, work)
+        if history:
             predict(work, n, y, x)
-        status, H_y, S_y, it, ev, theta, culprit = _newton(
-            kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, work
+        else:
+            axpy_into(y, h, field_into(vector(work, V_K1, n), model, eps_step, hamiltonian, x), x)
+            evaluations += 1
+        status, H_y, S_y, it, ev, theta, culprit = _iterate(
+            kind, max(cap, 2), coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, False, THETA_DIVERGE
         )
         iterations += it
         evaluations += ev
-        if status != NEWTON_FAILED:
-            break
+        work[WN_RATE] = theta
+        if work[WN_SOLVER] == AUTO:
+            after_fixed_point(work, n, model, status, it)
+    if status != OK and n <= DENSE_MAX_N and work[WN_SOLVER] != FIXED_POINT_ONLY:
+        newton_used = True
+        fresh = not (history and work[WN_FACTORED] > 0.0 and work[WN_LU_H] == h)
+        newton_iterations, refreshes = 0, 0
+        for attempt in range(2):
+            if attempt == 1 and fresh:
+                break
+            if fresh or attempt == 1:
+                _start(model, eps, hamiltonian, damped, x, h, work)
+                evaluations += n + 1
+                refreshes += 1
+                fresh = True
+            else:
+                predict(work, n, y, x)
+            eps_step = damped_eps(damped, eps, h, work)
+            status, H_y, S_y, it, ev, theta, culprit = _iterate(
+                kind, max_iter, coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, True, np.inf
+            )
+            iterations += it
+            newton_iterations += it
+            evaluations += ev
+            if status != NEWTON_FAILED:
+                break
+        if work[WN_SOLVER] == AUTO:
+            after_newton(work, newton_iterations, refreshes, fixed_point)
     if status != OK:
         work[WN_HISTORY] = 0.0
         return StepResult(y, comp, H_y, S_y, status, iterations, evaluations, theta, culprit)
@@ -537,7 +826,7 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
         copy_into(y, x)
         H_y, S_y = model.H(y, p), S_x
     remember_n(work, n, y, x, h)
-    if theta > THETA_REFRESH:
+    if newton_used and theta > THETA_REFRESH:
         work[WN_FACTORED] = 0.0  # the factors have gone stale: fresh ones next step
     return StepResult(y, comp, H_y, S_y, OK, iterations, evaluations, theta, UNKNOWN)
 

@@ -5,12 +5,25 @@ workspace array (``step_n.vector``), never allocating per step; these are the
 loops they share.  ``lu_factor``/``lu_solve`` are Gaussian elimination with
 partial pivoting (Golub & Van Loan, *Matrix Computations*, section 3.4),
 written out so that a small system pays no call into LAPACK
-(docs/engine_rn.md, "Solving the step").
+(docs/engine_rn.md, "Solving the step"); ``lapack_factor``/``lapack_solve``
+factor with LAPACK's ``dgetrf`` (blocked, O(n^3 / 3) at BLAS-3 speed) in place,
+reached through numba's own binding (``numba_xxgetrf``, linked by name, so
+the kernels stay cacheable), and solve with the factors by hand (O(n^2), as
+``dgetrs`` would for one right-hand side).
 """
 
 import numpy as np
+from numba import types
+from numba.extending import overload
+from numba.np.linalg import _LAPACK, F_INT_nptype, ensure_lapack
 
 from .jit import inner
+
+#: numba's binding of ``dgetrf`` (the one np.linalg uses; scipy's LAPACK is loaded when a kernel is compiled)
+_getrf = _LAPACK.numba_xxgetrf(types.float64)
+
+#: LAPACK's integer (the pivots of ``lapack_factor``)
+LAPACK_INT = F_INT_nptype
 
 
 @inner
@@ -155,4 +168,56 @@ def lu_solve(lu, pivots, b):
         for j in range(i + 1, n):
             s -= lu[i, j] * b[j]
         b[i] = s / lu[i, i]
+    return b
+
+
+def lapack_factor(a, pivots):
+    """Factor ``a`` (n, n, C order) in place with LAPACK's ``dgetrf``, which sees ``a^T`` (Fortran order):
+    ``a^T = P L U``; ``pivots`` (n LAPACK integers, ``LAPACK_INT``) records the rows, 1-based.  Returns False
+    where ``a`` is singular (a zero pivot) or not finite.  (This body runs under ``NUMBA_DISABLE_JIT=1``; compiled
+    code calls ``dgetrf`` directly, ``_lapack_factor_typed``.)"""
+    import scipy.linalg.lapack  # noqa: PLC0415 - the pure-Python lane only
+
+    if not np.all(np.isfinite(a)):
+        return False
+    _, piv, info = scipy.linalg.lapack.dgetrf(a.T, overwrite_a=1)
+    pivots[:] = piv + 1
+    return info == 0
+
+
+@overload(lapack_factor)
+def _lapack_factor_typed(a, pivots):
+    ensure_lapack()
+
+    def impl(a, pivots):
+        n = a.shape[0]
+        for i in range(n):
+            for j in range(n):
+                if not np.isfinite(a[i, j]):
+                    return False
+        return _getrf(ord("d"), n, n, a.ctypes, n, pivots.ctypes) == 0
+
+    return impl
+
+
+@inner
+def lapack_solve(lu, pivots, b):
+    """Solve ``a x = b`` in place (``b`` becomes x) from ``lapack_factor``'s factors: ``a = U^T L^T P^T`` (the
+    factors of ``a^T``), so ``U^T z = b`` (forward, the diagonal of U), ``L^T w = z`` (backward, unit diagonal),
+    ``x = P w`` (the interchanges in reverse order), all along the rows of ``lu``."""
+    n = lu.shape[0]
+    for i in range(n):
+        s = b[i]
+        for j in range(i):
+            s -= lu[i, j] * b[j]
+        b[i] = s / lu[i, i]
+    for i in range(n - 1, -1, -1):
+        s = b[i]
+        for j in range(i + 1, n):
+            s -= lu[i, j] * b[j]
+        b[i] = s
+    for i in range(n - 1, -1, -1):
+        p = pivots[i] - 1
+        if p != i:
+            b[i], b[p] = b[p], b[i]
     return b

@@ -13,8 +13,14 @@ gradients along the axes (n <= 32) or 32 random directions against central
 differences, the same 1e-5 relative; P skew and a user's metric symmetric to
 1e-10 of their largest entry; ``P grad S = 0`` and ``G grad H = 0`` to 1e-5 of
 ``max_i sum_j |A_ij| |v_j|``; the metric semidefinite of the form's sign, its
-wrong-signed eigenvalues within 1e-8 of the largest |eigenvalue|.  Jacobi is not
-checked in R^n (Galerkin truncations are not Jacobi, and the field needs only
+wrong-signed eigenvalues within 1e-8 of the largest |eigenvalue|.  An operator
+given as an action (``P_apply``, ``metric_apply``; GENERIC's ``L_apply``,
+``M_apply``) is checked on its matrix formed column by column where n <= 32,
+and by 8 random probes where n is larger: ``u . A v = -/+ v . A u`` to 1e-10
+of ``|u| |A v| + |v| |A u|``, ``v . G v`` of the form's sign to 1e-8 of
+``|v| |G v|``, and the null products (one action each) as for matrices, to
+1e-5 of ``|A|_est |v|`` (``|A|_est`` the largest ``|A u| / |u|`` of the
+probes).  Jacobi is not checked in R^n (Galerkin truncations are not Jacobi, and the field needs only
 skewness and the Casimir).
 """
 
@@ -250,8 +256,8 @@ def check_structure_n(system: Any) -> None:  # a MetriplecticSystemN (model.syst
 
 def _check_samples_n(system):
     names, n = system._names, system.dim
-    rows = [system._evaluate_one(x, with_matrices=True) for x in system._samples]
-    finite = [all(np.all(np.isfinite(v)) for v in row if v is not None) for row in rows]
+    rows = [_evaluate_operators(system, x) for x in system._samples]
+    finite = [all(np.all(np.isfinite(v)) for v in row if v is not None and not callable(v)) for row in rows]
     if not any(finite):
         raise ValueError(
             f"`samples`: the functions are not finite at any of the {len(rows)} sample points (e.g. x = "
@@ -283,15 +289,88 @@ def _check_samples_n(system):
                     f"differences (terms of size {size:.3g}). Pass check=False to skip this check."
                 )
     for x, (_, _, grad_H, grad_S, P, M) in zip(points, rows):
-        _require_matrix(names["P"], x, P, -1, "be skew-symmetric (P = -P^T)")
-        _require_null(names["P"], x, P, grad_S, f"satisfy {names['P']} grad S = 0 (S must be a Casimir of it)")
+        name = names["P" if system.functions.P is not None else "P_apply"]
+        letter = names["P"]
+        if callable(P):
+            _probe(name, x, P, -1, "be skew-symmetric (P = -P^T)", n)
+            _require_null_action(name, x, P, grad_S, f"satisfy {letter} grad S = 0 (S must be a Casimir of it)", n)
+        else:
+            _require_matrix(name, x, P, -1, "be skew-symmetric (P = -P^T)")
+            _require_null(name, x, P, grad_S, f"satisfy {letter} grad S = 0 (S must be a Casimir of it)")
         if M is None:
             continue
-        _require_matrix(names["M"], x, M, +1, "be symmetric")
-        _require_sign(names["M"], x, M, system.direction)
+        name = names["M" if system.functions.M is not None else "M_apply"]
         letter = "G" if names["M"] == "metric" else names["M"]
         rule = f"satisfy {letter} grad {names['H']} = 0 ({names['H']} must be conserved)"
-        _require_null(names["M"], x, M, grad_H, rule)
+        if callable(M):
+            _probe(name, x, M, +1, "be symmetric", n, system.direction)
+            _require_null_action(name, x, M, grad_H, rule, n)
+        else:
+            _require_matrix(name, x, M, +1, "be symmetric")
+            _require_sign(name, x, M, system.direction)
+            _require_null(name, x, M, grad_H, rule)
+
+
+#: probes of an operator given as an action where n > _DIRECTIONS
+_PROBES = 8
+
+
+def _evaluate_operators(system, x):
+    """``(H, S, grad H, grad S, P, M)`` at ``x``, P and M as matrices (formed column by column from an action
+    where n <= _DIRECTIONS), or as the action ``v -> A v`` itself where an action is given and n is larger; M None
+    for the paper's metric."""
+    values = system._evaluate_one(x)[:4]
+    operators = []
+    for role in ("P", "M"):
+        given_matrix = getattr(system.functions, role) is not None
+        given_action = getattr(system.functions, role + "_apply") is not None
+        if not (given_matrix or given_action):
+            operators.append(None)
+        elif given_action and system.dim > _DIRECTIONS:
+            operators.append(lambda v, role=role: system._call(role + "_apply", x, v))
+        else:
+            operators.append(system._call(role, x))
+    return (*values, *operators)
+
+
+def _probe(name, x, apply, sign, rule, n, direction=None):
+    """An action ``apply`` checked by random probes: ``u . A v = -sign v . A u`` (skew: sign -1, symmetric: +1)
+    to ``_MATRIX_RTOL`` of ``|u| |A v| + |v| |A u|``; with ``direction``, ``v . A v`` of its sign (Fish: <= 0,
+    GENERIC: >= 0) to ``_SIGN_RTOL`` of ``|v| |A v|``."""
+    rng = np.random.default_rng([20261123, n])
+    for k in range(_PROBES):
+        u, v = rng.normal(size=(2, n))
+        Au, Av = apply(u), apply(v)
+        residual = abs(u @ Av - sign * (v @ Au))
+        size = np.linalg.norm(u) * np.linalg.norm(Av) + np.linalg.norm(v) * np.linalg.norm(Au)
+        if residual > _MATRIX_RTOL * size:
+            relation = "-v . A u" if sign < 0 else "v . A u"
+            raise ValueError(
+                f"`{name}` must {rule}; at x = {shown(x)} the random probe #{k} gives u . A v = {u @ Av!r} but "
+                f"{relation} = {sign * (v @ Au)!r} (terms of size {size:.3g}). Pass check=False to skip this check."
+            )
+        if direction is not None:
+            form = float(v @ Av)
+            if -direction * form > _SIGN_RTOL * np.linalg.norm(v) * np.linalg.norm(Av):
+                kind, effect = ("negative", "S would rise") if direction < 0 else ("positive", "the entropy would fall")
+                raise ValueError(
+                    f"`{name}` must be {kind} semidefinite (a metric of the wrong sign: {effect}); at x = {shown(x)} "
+                    f"the random probe #{k} gives v . A v = {form!r}. Pass check=False to skip this check."
+                )
+
+
+def _require_null_action(name, x, apply, v, rule, n):
+    """``A v = 0`` for an action, to 1e-5 of ``|A|_est |v|`` (``|A|_est``: the largest ``|A u| / |u|`` over
+    random probes u)."""
+    rng = np.random.default_rng([20261124, n])
+    estimate = max(np.linalg.norm(apply(u)) / np.linalg.norm(u) for u in rng.normal(size=(_PROBES, n)))
+    residual = np.abs(apply(v))
+    size = estimate * np.linalg.norm(v)
+    if np.linalg.norm(residual) > 1e-5 * (size + 1e-8):
+        raise ValueError(
+            f"`{name}` must {rule}; at x = {shown(x)} the product has |entry| up to {residual.max()!r} (at index "
+            f"{int(np.argmax(residual))}; |A| |v| ~ {size:.3g}). Pass check=False to skip this check."
+        )
 
 
 def _unit_directions(n):

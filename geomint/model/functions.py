@@ -28,6 +28,8 @@ if TYPE_CHECKING:
 
 _VECTOR = numba.types.float64[::1]
 _SIGNATURE = (_VECTOR, _VECTOR)
+#: an operator given as an action: ``(x, v, params) -> P(x) v``
+_ACTION_SIGNATURE = (_VECTOR, _VECTOR, _VECTOR)
 _SCALAR_TYPES = (numba.types.float64,)
 _VECTOR_FORMS = {
     numba.types.UniTuple(numba.types.float64, 3): "tuple",
@@ -62,6 +64,7 @@ _EXAMPLES_N = {
     "M": ("an (n, n) contiguous float64 array", _SQUARE),
     "metric": ("an (n, n) contiguous float64 array", _SQUARE),
 }
+_ACTION_EXAMPLE = "np.zeros(x.shape[0])  # P(x) v, without forming P"
 
 
 def _how_to_jit(name, dim=None):
@@ -95,30 +98,43 @@ class ModelFunctions:
     poisson_form: str
 
 
-def _compiled_return_type(name, fn, dim=None):
+def _how_to_jit_action(name):
+    return (
+        f"Write it as a numba function of (x, v, params), e.g.\n    @numba.njit\n    def {name}(x, v, params):\n"
+        f"        return {_ACTION_EXAMPLE}\nwith x, v and params float64 arrays; `{name}` returns a contiguous "
+        "float64 array of length n."
+    )
+
+
+def _compiled_return_type(name, fn, dim=None, signature=_SIGNATURE):
+    action = signature is _ACTION_SIGNATURE
+    how = _how_to_jit_action(name) if action else _how_to_jit(name, dim)
+    arguments = "(x, v, params)" if action else "(x, params)"
     if numba.config.DISABLE_JIT:  # pyright: ignore[reportPrivateImportUsage, reportAttributeAccessIssue]
         if not callable(fn):
-            raise TypeError(f"`{name}` must be a function of (x, params); got {type(fn).__name__}.")
+            raise TypeError(f"`{name}` must be a function of {arguments}; got {type(fn).__name__}.")
         return None
     if not isinstance(fn, Dispatcher):
-        raise TypeError(f"`{name}` must be a numba-jitted function; got {fn!r}. {_how_to_jit(name, dim)}")
+        raise TypeError(f"`{name}` must be a numba-jitted function; got {fn!r}. {how}")
     try:
-        fn.compile(_SIGNATURE)
+        fn.compile(signature)
     except Exception as exc:
         raise TypeError(
-            f"`{name}` does not compile for (x, params) with float64 arrays: "
-            f"{type(exc).__name__}: {str(exc).splitlines()[0]}. {_how_to_jit(name, dim)}"
+            f"`{name}` does not compile for {arguments} with float64 arrays: "
+            f"{type(exc).__name__}: {str(exc).splitlines()[0]}. {how}"
         ) from exc
-    return fn.overloads[_SIGNATURE].signature.return_type
+    return fn.overloads[signature].signature.return_type
 
 
-def first_class(fn: Any) -> Any:
-    """A jitted user function as a first-class function object for the kernels."""
+def first_class(fn: Any, action: bool = False) -> Any:
+    """A jitted user function as a first-class function object for the kernels (of ``(x, v, params)`` where
+    ``action``, else of ``(x, params)``)."""
     if numba.config.DISABLE_JIT:  # pyright: ignore[reportPrivateImportUsage, reportAttributeAccessIssue]
         return fn
-    if _SIGNATURE not in fn.overloads:  # a system unpickled in another process (a Dask worker)
-        fn.compile(_SIGNATURE)
-    return CompileResultWAP(fn.overloads[_SIGNATURE])
+    signature = _ACTION_SIGNATURE if action else _SIGNATURE
+    if signature not in fn.overloads:  # a system unpickled in another process (a Dask worker)
+        fn.compile(signature)
+    return CompileResultWAP(fn.overloads[signature])
 
 
 def scalar_function(name: str, fn: Any, dim: int | None = None) -> Any:
@@ -167,14 +183,29 @@ def matrix_function(name: str, fn: Any, dim: int | None = None) -> Any:
     return fn
 
 
+def action_function(name: str, fn: Any, dim: int) -> Any:
+    """``fn`` if it compiles for ``(x, v, params)`` and returns a contiguous float64 array (``P(x) v`` in R^dim;
+    its length is probed by ``check_returned_shapes``), else a ``TypeError`` saying how to write it."""
+    rtype = _compiled_return_type(name, fn, dim, _ACTION_SIGNATURE)
+    if rtype is not None and rtype != _VECTOR:
+        raise TypeError(
+            f"`{name}` must return a contiguous float64 array of length n = {dim}; it returns {rtype}. "
+            f"{_how_to_jit_action(name)}"
+        )
+    return fn
+
+
 def check_returned_shapes(
     wanted: dict[str, tuple[Callable, tuple[int, ...]]], x: npt.NDArray[np.float64], params: npt.NDArray[np.float64]
 ) -> None:
     """Each function of ``wanted`` (``{name: (fn, shape)}``) returns an array of its shape at the state ``x``: an
-    array's type does not carry its length, and the kernels would read past a shorter one."""
+    array's type does not carry its length, and the kernels would read past a shorter one.  An action (``fn``
+    of ``(x, v, params)``, marked by ``shape`` ending in ``"action"``) is applied to ``v = x``."""
     for name, (fn, shape) in wanted.items():
+        action = shape[-1] == "action"
+        shape = shape[:-1] if action else shape
         try:
-            value = fn(x.copy(), params)
+            value = fn(x.copy(), x.copy(), params) if action else fn(x.copy(), params)
         except Exception:  # noqa: BLE001 - undefined at this point is the structure check's business
             continue
         if np.shape(value) != shape:
@@ -198,17 +229,20 @@ def check_shapes(functions: ModelFunctions, params: npt.NDArray[np.float64]) -> 
 
 @dataclass(frozen=True)
 class ModelFunctionsN:
-    """The jitted user functions of a system in R^n, all of signature ``(x, params)``, by their role in
-    ``dx/dt = P grad H + eps D grad S``: GENERIC's E, grad_E and L are ``H``, ``grad_H`` and ``P`` here.
-    ``M`` is the user's metric (Fish form's G, GENERIC's friction matrix), None where the paper's metric g is
-    used."""
+    """The jitted user functions of a system in R^n, by their role in ``dx/dt = P grad H + eps D grad S``:
+    GENERIC's E, grad_E and L are ``H``, ``grad_H`` and ``P`` here.  ``M`` is the user's metric (Fish form's G,
+    GENERIC's friction matrix), None where the paper's metric g is used.  Each operator is given either as a
+    matrix function of ``(x, params)`` (``P``, ``M``) or as an action of ``(x, v, params)`` (``P_apply``,
+    ``M_apply``), the other None."""
 
     H: Callable
     grad_H: Callable
     S: Callable
     grad_S: Callable
-    P: Callable
+    P: Callable | None
     M: Callable | None
+    P_apply: Callable | None = None
+    M_apply: Callable | None = None
 
 
 @numba.njit(cache=CACHE)
@@ -217,3 +251,10 @@ def no_metric(x, params):
     the type a user's metric has."""
     n = x.shape[0]
     return np.zeros((n, n))
+
+
+@numba.njit(cache=CACHE)
+def no_action(x, v, params):
+    """The placeholder for ``ModelN.P_apply`` / ``M_apply`` where the operator is given as a matrix (never
+    called): a zero vector of length n, of the type an action has."""
+    return np.zeros(x.shape[0])

@@ -30,14 +30,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .. import _user_errors, _validate
-from .._kernels.layout import PAPER_METRIC, USER_METRIC, ModelN
+from .._kernels.layout import M_ACTION, P_ACTION, PAPER_METRIC, USER_METRIC, ModelN
 from .checks import check_dim, check_samples, check_structure_n
 from .functions import (
     ModelFunctionsN,
+    action_function,
     array_function,
     check_returned_shapes,
     first_class,
     matrix_function,
+    no_action,
     no_metric,
     scalar_function,
 )
@@ -51,8 +53,26 @@ if TYPE_CHECKING:
     Vector = npt.NDArray[np.float64]
 
 #: the roles of the user functions in ``dx/dt = P grad H + eps D grad S``, and their names in the Fish form
-_FISH_NAMES = {"H": "H", "grad_H": "grad_H", "S": "S", "grad_S": "grad_S", "P": "P", "M": "metric"}
-_GENERIC_NAMES = {"H": "E", "grad_H": "grad_E", "S": "S", "grad_S": "grad_S", "P": "L", "M": "M"}
+_FISH_NAMES = {
+    "H": "H",
+    "grad_H": "grad_H",
+    "S": "S",
+    "grad_S": "grad_S",
+    "P": "P",
+    "M": "metric",
+    "P_apply": "P_apply",
+    "M_apply": "metric_apply",
+}
+_GENERIC_NAMES = {
+    "H": "E",
+    "grad_H": "grad_E",
+    "S": "S",
+    "grad_S": "grad_S",
+    "P": "L",
+    "M": "M",
+    "P_apply": "L_apply",
+    "M_apply": "M_apply",
+}
 
 
 class MetriplecticSystemN(MetriplecticSystem, rn=True):
@@ -71,6 +91,11 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         The Casimir (dissipated) and its gradient.
     P : numba-jitted function ``(x, params) -> (n, n) float64 array``
         The Poisson tensor: skew, with ``P grad S = 0``.  Jacobi is not required.
+    P_apply : numba-jitted function ``(x, v, params) -> float64 array (n,)``
+        The Poisson tensor as an action, ``P(x) v``, in place of ``P`` (give
+        exactly one of the two): the kernels then never form an (n, n) matrix,
+        and a step costs what the action costs (docs/engine_rn.md, "Solving the
+        step").
     eps : float, default 1.0
         The perturbation parameter, ``eps >= 0``.
     params : sequence of float
@@ -80,6 +105,8 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
     metric : numba-jitted function ``(x, params) -> (n, n) float64 array``, optional
         A metric G to use instead of the paper's g: symmetric, negative
         semidefinite, ``G grad H = 0``.
+    metric_apply : numba-jitted function ``(x, v, params) -> float64 array (n,)``, optional
+        The same metric as an action ``G(x) v``, in place of ``metric``.
     name : str
         A label for reports.
     variables : sequence of n str, optional
@@ -94,7 +121,9 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         Check at the samples that the gradients match central differences of H
         and S, P is skew, ``P grad S = 0``, and a given metric is symmetric,
         negative semidefinite and annihilates ``grad H``; a violation raises
-        ``ValueError`` naming the argument.
+        ``ValueError`` naming the argument.  An operator given as an action is
+        checked on its matrix, formed column by column, for n <= 32, and by
+        random probes (``u . P v = -v . P u``, ``v . G v <= 0``) above.
 
     x and params reach the functions as contiguous float64 arrays; vectors are
     returned as contiguous float64 arrays (not tuples) of length n, matrices as
@@ -135,6 +164,8 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         dim: int | None = None,
         metric: Callable[..., Any] | None = None,
         name: str = "custom",
+        P_apply: Callable[..., Any] | None = None,
+        metric_apply: Callable[..., Any] | None = None,
         samples: npt.ArrayLike | None = None,
         check: bool = True,
         variables: Any = None,
@@ -147,10 +178,8 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
             )
         if exact_flows is not None:
             raise TypeError("`exact_flows` are declared for systems in R^3 only.")
-        if P is None:
-            raise TypeError("give `P`, the Poisson tensor as an (n, n) skew matrix function of (x, params).")
         self._setup(
-            dict(H=H, grad_H=grad_H, S=S, grad_S=grad_S, P=P, M=metric),
+            dict(H=H, grad_H=grad_H, S=S, grad_S=grad_S, P=P, M=metric, P_apply=P_apply, M_apply=metric_apply),
             eps=eps,
             params=params,
             dim=dim,
@@ -172,13 +201,17 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         self.variables = check_variables(variables, n)
         self.exact_flows = {}
         names = self._names
+        _one_form(names, given, "P", required=True)
+        _one_form(names, given, "M", required=self.direction > 0)
         self.functions = ModelFunctionsN(
             H=scalar_function(names["H"], given["H"], n),
             grad_H=array_function(names["grad_H"], given["grad_H"], n),
             S=scalar_function(names["S"], given["S"], n),
             grad_S=array_function(names["grad_S"], given["grad_S"], n),
-            P=matrix_function(names["P"], given["P"], n),
+            P=None if given["P"] is None else matrix_function(names["P"], given["P"], n),
             M=None if given["M"] is None else matrix_function(names["M"], given["M"], n),
+            P_apply=None if given["P_apply"] is None else action_function(names["P_apply"], given["P_apply"], n),
+            M_apply=None if given["M_apply"] is None else action_function(names["M_apply"], given["M_apply"], n),
         )
         self._samples = check_samples(samples, n)
         self._checked = bool(check)
@@ -188,9 +221,11 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         """Shapes at the first sample; the structure at all of them when ``structure``."""
         f, n = self.functions, self.dim
         wanted = {self._names["grad_H"]: (f.grad_H, (n,)), self._names["grad_S"]: (f.grad_S, (n,))}
-        wanted[self._names["P"]] = (f.P, (n, n))
-        if f.M is not None:
-            wanted[self._names["M"]] = (f.M, (n, n))
+        for role in ("P", "M"):
+            if getattr(f, role) is not None:
+                wanted[self._names[role]] = (getattr(f, role), (n, n))
+            if getattr(f, role + "_apply") is not None:
+                wanted[self._names[role + "_apply"]] = (getattr(f, role + "_apply"), (n, "action"))
         check_returned_shapes(wanted, self._samples[0], self._params)
         if structure:
             with np.errstate(all="ignore"):  # finite differences of huge values overflow: the checks see inf/nan
@@ -200,18 +235,30 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
     @property
     def metric(self) -> int:
         """``layout.PAPER_METRIC`` (the paper's g) or ``layout.USER_METRIC`` (the user's G, GENERIC's M)."""
-        return PAPER_METRIC if self.functions.M is None else USER_METRIC
+        f = self.functions
+        return PAPER_METRIC if f.M is None and f.M_apply is None else USER_METRIC
+
+    @property
+    def actions(self) -> int:
+        """Which operators are given as actions: ``layout.P_ACTION | layout.M_ACTION`` bits (0: both matrices)."""
+        f = self.functions
+        return (P_ACTION if f.P_apply is not None else 0) | (M_ACTION if f.M_apply is not None else 0)
 
     @property
     def model(self) -> ModelN:  # pyright: ignore[reportIncompatibleVariableOverride]  # the R^n engine's model
-        """``layout.ModelN(H, grad_H, S, grad_S, P, M, params, metric, direction, origin)``: the system as the
-        R^n kernels receive it, the functions as compiled first-class function objects.  Where the paper's metric
-        is used, M is a placeholder of the same type (an (n, n) zero matrix, never called)."""
+        """``layout.ModelN(H, grad_H, S, grad_S, P, M, params, metric, direction, origin, P_apply, M_apply,
+        actions)``: the system as the R^n kernels receive it, the functions as compiled first-class function
+        objects.  Each operator's unused form (the matrix where an action is given, the action where a matrix is,
+        both where the paper's metric is used) is a placeholder of the same type, never called: every system in
+        R^n has one numba type."""
         if "_model" not in self.__dict__:
             f = self.functions
-            M = no_metric if f.M is None else f.M
-            handles = tuple(first_class(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S, f.P, M))
-            self._model = ModelN(*handles, self._params, self.metric, self.direction, self._origin())  # pyright: ignore[reportCallIssue]
+            matrices = tuple(first_class(no_metric if fn is None else fn) for fn in (f.P, f.M))
+            actions = tuple(first_class(no_action if fn is None else fn, action=True) for fn in (f.P_apply, f.M_apply))
+            handles = tuple(first_class(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S))
+            self._model = ModelN(  # pyright: ignore[reportCallIssue]
+                *handles, *matrices, self._params, self.metric, self.direction, self._origin(), *actions, self.actions
+            )
         return self._model
 
     def _origin(self, params=None):
@@ -260,7 +307,7 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
 
     def __repr__(self) -> str:
         effects = "" if self.hamiltonian else ", hamiltonian=False"
-        metric = "" if self.functions.M is None or self.direction > 0 else ", metric=user"
+        metric = "" if self.metric == PAPER_METRIC or self.direction > 0 else ", metric=user"
         return (
             f"{type(self).__name__}(name={self.name!r}, dim={self.dim}, eps={self.eps!r}{metric}{effects}, "
             f"params={_shown_params(self._params)})"
@@ -281,23 +328,38 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
             )
         return np.ascontiguousarray(np.atleast_2d(X)), X.ndim == 1
 
-    def _call(self, role, x):
-        """The user function of ``role`` (``H``, ``grad_H``, ``S``, ``grad_S``, ``P``, ``M``) at the state ``x``;
-        an exception it raises becomes a ``UserFunctionError`` naming it by the user's name."""
-        fn = getattr(self.functions, role)
+    def _call(self, role, x, v=None):
+        """The user function of ``role`` (``H``, ``grad_H``, ``S``, ``grad_S``, ``P``, ``M``, ``P_apply``,
+        ``M_apply``; an action applied to ``v``) at the state ``x``; an exception it raises becomes a
+        ``UserFunctionError`` naming it by the user's name.  ``P`` and ``M`` given as actions are formed column by
+        column (n actions)."""
+        f = getattr(self.functions, role)
+        if f is None and role in ("P", "M"):
+            return np.column_stack([self._call(role + "_apply", x, e) for e in np.eye(self.dim)])
+        x = x if x.flags.c_contiguous else np.ascontiguousarray(x)
         try:
-            value = fn(x if x.flags.c_contiguous else np.ascontiguousarray(x), self._params)
+            if role.endswith("_apply"):
+                value = f(x, np.ascontiguousarray(v, dtype=np.float64), self._params)
+            else:
+                value = f(x, self._params)
         except Exception as error:
             raise _user_errors.UserFunctionError(self._names[role], x.tolist(), error) from error
         return float(value) if role in ("H", "S") else np.asarray(value, dtype=np.float64)
 
+    def _apply(self, role, x, v):
+        """``P(x) v`` (``role`` "P") or ``M(x) v`` ("M") by the operator's native form: its action, or its matrix
+        times v."""
+        if getattr(self.functions, role + "_apply") is not None:
+            return self._call(role + "_apply", x, v)
+        return self._call(role, x) @ v
+
     def _evaluate_one(self, x, with_matrices=False):
-        """``(H, S, grad H, grad S, P, M)`` at one state (P and M only ``with_matrices``; M None for the paper's
-        metric)."""
+        """``(H, S, grad H, grad S, P, M)`` at one state (P and M only ``with_matrices``, as matrices; M None for
+        the paper's metric)."""
         values = [self._call(role, x) for role in ("H", "S", "grad_H", "grad_S")]
         if not with_matrices:
             return (*values, None, None)
-        M = None if self.functions.M is None else self._call("M", x)
+        M = None if self.metric == PAPER_METRIC else self._call("M", x)
         return (*values, self._call("P", x), M)
 
     def _over(self, x, one):
@@ -309,12 +371,15 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
     def raising_function(self, x: npt.ArrayLike) -> tuple[str, Exception] | None:
         """``(name, exception)`` of the first user function that raises at ``x``, or None if none does."""
         X, _ = self._states(x)
-        for role in ("H", "S", "grad_H", "grad_S", "P", "M"):
+        for role in ("H", "S", "grad_H", "grad_S", "P", "M", "P_apply", "M_apply"):
             fn = getattr(self.functions, role)
             if fn is None:
                 continue
             try:
-                fn(X[0].copy(), self._params)
+                if role.endswith("_apply"):
+                    fn(X[0].copy(), X[0].copy(), self._params)
+                else:
+                    fn(X[0].copy(), self._params)
             except Exception as error:  # noqa: BLE001 - any exception of the user's is the answer
                 return self._names[role], error
         return None
@@ -334,7 +399,8 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         return self._over(x, lambda row: self._call("grad_S", row))
 
     def P(self, x: npt.ArrayLike) -> Vector:
-        """The Poisson tensor, shape (n, n) at one state, (m, n, n) at many."""
+        """The Poisson tensor, shape (n, n) at one state, (m, n, n) at many (formed column by column where it is
+        given as an action)."""
         return self._over(x, lambda row: self._call("P", row))
 
     def g(self, x: npt.ArrayLike) -> Vector:
@@ -343,21 +409,21 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
 
     def D(self, x: npt.ArrayLike) -> Vector:
         """The metric the field uses: the paper's g, or the user's G (GENERIC: M); (n, n) or (m, n, n)."""
-        if self.functions.M is None:
+        if self.metric == PAPER_METRIC:
             return self.g(x)
         return self._over(x, lambda row: self._call("M", row))
 
     def _dissipative(self, row):
         """``D grad S`` at one state (with ``grad S``), D applied without forming g where it is the paper's."""
         gs = self._call("grad_S", row)
-        if self.functions.M is not None:
-            return self._call("M", row) @ gs, gs
+        if self.metric != PAPER_METRIC:
+            return self._apply("M", row, gs), gs
         gh = self._call("grad_H", row)
         return gh * (gh @ gs) - (gh @ gh) * gs, gs
 
     def xi_P(self, x: npt.ArrayLike) -> Vector:
         """The Hamiltonian field ``P grad H``."""
-        return self._over(x, lambda row: self._call("P", row) @ self._call("grad_H", row))
+        return self._over(x, lambda row: self._apply("P", row, self._call("grad_H", row)))
 
     def xi_g(self, x: npt.ArrayLike) -> Vector:
         """The dissipative field ``D grad S`` (without eps)."""
@@ -366,7 +432,7 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
     def _xi_row(self, row):
         field = self.eps * self._dissipative(row)[0]
         if self.hamiltonian:
-            field = self._call("P", row) @ self._call("grad_H", row) + field
+            field = self._apply("P", row, self._call("grad_H", row)) + field
         return field
 
     def xi(self, x: npt.ArrayLike) -> Vector:
@@ -384,7 +450,7 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         return self._over(x, self._dS_dt_row)
 
     def _dS_dt_row(self, row):
-        if self.functions.M is not None:
+        if self.metric != PAPER_METRIC:
             dissipative, gs = self._dissipative(row)
             return self.eps * float(gs @ dissipative)
         gh, gs = self._call("grad_H", row), self._call("grad_S", row)
@@ -438,6 +504,9 @@ class GenericSystem(MetriplecticSystemN):
         The Poisson matrix (skew, ``L grad S = 0``).
     M : numba-jitted function ``(x, params) -> (n, n) float64 array``
         The friction matrix (symmetric positive semidefinite, ``M grad E = 0``).
+    L_apply, M_apply : numba-jitted functions ``(x, v, params) -> float64 array (n,)``
+        The same operators as actions, ``L(x) v`` and ``M(x) v``, in place of
+        ``L`` and ``M`` (exactly one form of each): no (n, n) matrix is formed.
     params, dim, name, samples, check, variables
         As for ``MetriplecticSystemN``; the checks name ``E``, ``grad_E``, ``L`` and ``M``.
 
@@ -455,17 +524,19 @@ class GenericSystem(MetriplecticSystemN):
         grad_E: Callable[..., Any],
         S: Callable[..., Any],
         grad_S: Callable[..., Any],
-        L: Callable[..., Any],
-        M: Callable[..., Any],
+        L: Callable[..., Any] | None = None,
+        M: Callable[..., Any] | None = None,
         params: npt.ArrayLike = (),
         dim: int | None = None,
         name: str = "custom",
         samples: npt.ArrayLike | None = None,
         check: bool = True,
         variables: Any = None,
+        L_apply: Callable[..., Any] | None = None,
+        M_apply: Callable[..., Any] | None = None,
     ) -> None:
         self._setup(
-            dict(H=E, grad_H=grad_E, S=S, grad_S=grad_S, P=L, M=M),
+            dict(H=E, grad_H=grad_E, S=S, grad_S=grad_S, P=L, M=M, P_apply=L_apply, M_apply=M_apply),
             eps=1.0,
             params=params,
             dim=dim,
@@ -513,6 +584,23 @@ def check_variables(variables: Any, n: int) -> tuple[str, ...]:
     if repeated:
         raise ValueError(f"{rule}; {repeated[0]!r} is given {names.count(repeated[0])} times.")
     return names
+
+
+def _one_form(names, given, role, required):
+    """Exactly one of the matrix ``given[role]`` and the action ``given[role + "_apply"]`` (at most one where the
+    operator is optional), else a TypeError naming both."""
+    matrix, action = names[role], names[role + "_apply"]
+    if given[role] is not None and given[role + "_apply"] is not None:
+        raise TypeError(
+            f"give `{matrix}` (a matrix function of (x, params)) or `{action}` (its action, a function "
+            f"of (x, v, params)), not both."
+        )
+    if required and given[role] is None and given[role + "_apply"] is None:
+        what = "the Poisson tensor" if role == "P" else "the friction matrix"
+        raise TypeError(
+            f"give `{matrix}`, {what} as an (n, n) matrix function of (x, params), or `{action}`, its action "
+            f"v -> {matrix}(x) v as a function of (x, v, params)."
+        )
 
 
 def _paper_metric(gh):

@@ -229,30 +229,26 @@ def solve(
 
 def check_in_rn(system: MetriplecticSystem, integrator: Integrator, step_data: tuple) -> None:
     """Refuse, naming ``method``, what a run in R^n does not offer: the exact flows (R^3 sub-flows),
-    Hairer's symmetric projection, the damped step, the symmetrized Itoh-Abe gradient beyond
-    ``MAX_SYMMETRIZED_DIM``."""
+    Hairer's symmetric projection, the symmetrized Itoh-Abe gradient beyond ``MAX_SYMMETRIZED_DIM``."""
     from .._kernels.step_n import MAX_SYMMETRIZED_DIM
 
     n = system.dim
-    rows: list[tuple[int, int, int]] = []  # (leaf, kind, damped) of every leaf the method runs
+    rows: list[tuple[int, int]] = []  # (leaf, kind) of every leaf the method runs
     symmetric = False
     if isinstance(step_data, _layout.DiscreteGradientStep):
-        rows.append((_layout.LEAF_DISCRETE_GRADIENT, step_data.kind.code, int(step_data.damped.on)))
+        rows.append((_layout.LEAF_DISCRETE_GRADIENT, step_data.kind.code))
     elif isinstance(step_data, _layout.ComposedStep):
         iopts = step_data.iopts
         symmetric = iopts[_layout.P_PROJECTION] == _layout.SYMMETRIC
         for k in range(iopts[_layout.P_STAGES] + 1):
             row = _layout.HEADER + _layout.ROW * k
-            leaf, kind, damped = (iopts[row + r] for r in (_layout.R_LEAF, _layout.R_KIND, _layout.R_DAMPED))
-            rows.append((int(leaf), int(kind), int(damped)))
+            rows.append((int(iopts[row + _layout.R_LEAF]), int(iopts[row + _layout.R_KIND])))
     why = None
-    if any(leaf not in (_layout.LEAF_RK4, _layout.LEAF_DISCRETE_GRADIENT) for leaf, _, _ in rows):
+    if any(leaf not in (_layout.LEAF_RK4, _layout.LEAF_DISCRETE_GRADIENT) for leaf, _ in rows):
         why = "its exact flows are sub-flows of systems in R^3"
     elif symmetric:
         why = "Hairer's symmetric projection is offered in R^3 only; Projected(..., symmetric=False) runs in R^n"
-    elif any(damped for _, _, damped in rows):
-        why = "the damped step is offered in R^3 only so far"
-    elif any(leaf == _layout.LEAF_DISCRETE_GRADIENT and kind == _layout.SYMMETRIZED_ITOH_ABE for leaf, kind, _ in rows):
+    elif any(leaf == _layout.LEAF_DISCRETE_GRADIENT and kind == _layout.SYMMETRIZED_ITOH_ABE for leaf, kind in rows):
         if n > MAX_SYMMETRIZED_DIM:
             why = (
                 f"the symmetrized Itoh-Abe gradient averages over the n! orders of the coordinates, offered for "

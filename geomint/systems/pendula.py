@@ -74,7 +74,44 @@ def _M(x, p):
     return out
 
 
-def damped_pendula(N: int = 4, gamma: float = 0.5) -> GenericSystem:
+@njit(cache=CACHE)
+def _L_apply(x, v, p):
+    """``L v``: ``(v_p, -v_q, 0)``, O(n)."""
+    n = x.shape[0]
+    N = (n - 1) // 2
+    out = np.empty(n)
+    for i in range(N):
+        out[i] = v[N + i]
+        out[N + i] = -v[i]
+    out[n - 1] = 0.0
+    return out
+
+
+@njit(cache=CACHE)
+def _M_apply(x, v, p):
+    """``M v = gamma sum_i w_i (w_i . v)``, ``w_i = e_{p_i} - p_i e_s``: ``(0, gamma (v_p - p v_s),
+    gamma (|p|^2 v_s - p . v_p))``, O(n)."""
+    n = x.shape[0]
+    N = (n - 1) // 2
+    gamma = p[0]
+    vs = v[n - 1]
+    out = np.empty(n)
+    last = 0.0
+    for i in range(N):
+        pi = x[N + i]
+        c = v[N + i] - pi * vs  # w_i . v
+        out[i] = 0.0
+        out[N + i] = gamma * c
+        last -= gamma * pi * c
+    out[n - 1] = last
+    return out
+
+
+#: the forms ``damped_pendula`` gives L and M in
+FORMS = ("action", "matrix")
+
+
+def damped_pendula(N: int = 4, gamma: float = 0.5, form: str = "action") -> GenericSystem:
     """N pendula, each damped, their heat going to one shared entropy s (GENERIC, n = 2N + 1).
 
         x = (q_1 ... q_N, p_1 ... p_N, s),   E = sum_i p_i^2 / 2 + sum_i cos q_i + s,   S = s,
@@ -87,6 +124,9 @@ def damped_pendula(N: int = 4, gamma: float = 0.5) -> GenericSystem:
     The coordinates are named ``q1 ... qN, p1 ... pN, s`` (``system.variables``).
     Every pendulum comes to rest at ``cos q = -1`` (the minimum of the potential
     cos q), so ``S_inf = E_0 + N``.  L and M are block-sparse: O(n) entries of n^2.
+    ``form="action"`` (the default) gives them as actions ``v -> L v``, ``v -> M v``
+    (O(n) each: a step costs O(n), docs/engine_rn_speed.md); ``form="matrix"`` as
+    (n, n) matrices (O(n^2) per product, a dense Jacobian O(n^3)): the same system.
 
     Reference: DESIGN_RN.md section 5; GENERIC: Grmela and Oettinger, Phys. Rev. E 56 (1997) 6620.
     """
@@ -95,13 +135,15 @@ def damped_pendula(N: int = 4, gamma: float = 0.5) -> GenericSystem:
     gamma = real("gamma", gamma)
     if not 0.0 <= gamma < float("inf"):
         raise ValueError(f"`gamma` must be finite and >= 0; got {gamma!r}.")
+    if form not in FORMS:
+        raise ValueError(f"`form` must be one of {FORMS}; got {form!r}.")
+    operators = dict(L_apply=_L_apply, M_apply=_M_apply) if form == "action" else dict(L=_L, M=_M)
     return GenericSystem(
         E=_E,
         grad_E=_grad_E,
         S=_S,
         grad_S=_grad_S,
-        L=_L,
-        M=_M,
+        **operators,
         params=[gamma],
         dim=2 * int(N) + 1,
         name=f"damped_pendula_{int(N)}",
