@@ -33,7 +33,9 @@ def _own3(model, params, origin):
 @njit(inline="always")
 def _own_n(model, params, origin):
     f = model
-    return ModelN(f.H, f.grad_H, f.S, f.grad_S, f.P, f.M, params, f.metric, f.direction, origin)
+    return ModelN(
+        f.H, f.grad_H, f.S, f.grad_S, f.P, f.M, params, f.metric, f.direction, origin, f.P_apply, f.M_apply, f.actions
+    )
 
 
 def own_model(model, params, origin):
