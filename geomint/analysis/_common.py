@@ -39,12 +39,24 @@ def check_level(H0: float) -> float:
     return value
 
 
-def as_points(X: npt.ArrayLike) -> npt.NDArray[np.float64]:
-    """``X`` as a float64 array of shape ``(n, 3)`` (one point ``(3,)`` becomes ``(1, 3)``)."""
+def as_points(X: npt.ArrayLike, dim: int = 3) -> npt.NDArray[np.float64]:
+    """``X`` as a float64 array of shape ``(m, dim)`` (one point ``(dim,)`` becomes ``(1, dim)``)."""
     try:
         X = np.atleast_2d(np.asarray(X, dtype=np.float64))
     except (TypeError, ValueError):
-        raise TypeError(f"`x` must be an array of real numbers of shape (3,) or (n, 3); got {X!r}.") from None
-    if X.ndim != 2 or X.shape[1] != 3:
-        raise ValueError(f"`x` must have shape (3,) or (n, 3); got shape {X.shape}.")
+        raise TypeError(f"`x` must be an array of real numbers of shape ({dim},) or (n, {dim}); got {X!r}.") from None
+    if X.ndim != 2 or X.shape[1] != dim:
+        raise ValueError(f"`x` must have shape ({dim},) or (n, {dim}); got shape {X.shape}.")
     return X
+
+
+def dimension(system: MetriplecticSystem) -> int:
+    """The dimension n of the system's state (3 for the systems in R^3)."""
+    return int(getattr(system, "dim", 3))
+
+
+def require_three(system: MetriplecticSystem, what: str, instead: str) -> None:
+    """Refuse a system in R^n (n != 3) for an [R3] tool, naming ``what`` and the R^n tool to use ``instead``."""
+    n = dimension(system)
+    if n != 3:
+        raise TypeError(f"{what} works on systems in R^3; `system` is in R^{n}: use {instead}.")

@@ -17,20 +17,27 @@ with the parameter eps of ``dx/dt = xi_P + eps xi_g``.  Two facts frame the answ
 ``continuation`` finds the equilibria at the largest eps, follows them over
 the given eps values and locates every change of verdict (stable / unstable /
 neutral) or of kind (node / focus / saddle / centre / degenerate) by bisection.
+It works on a sampled level surface, in R^3.  ``continuation_n`` does the same
+in R^n for the equilibria of ``analysis.critical_points`` (the critical points of
+S on the level set), with the same ``Branch``, ``Change`` and bisection.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from . import critical_points as _critical
 from . import equilibria as _equilibria
 from . import stability as _stability
 from . import zero_sets as _zero_sets
+from ._common import require_three
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     import numpy.typing as npt
 
     from ..model.system import MetriplecticSystem
@@ -71,16 +78,17 @@ class Branch:
     Attributes
     ----------
     object : str
-        ``"equilibrium"``, ``"curve"`` or ``"cycle"``.
-    x : ndarray, shape (3,)
-        The point (for a curve or cycle, its first point) at the largest eps.
+        ``"equilibrium"``, ``"curve"`` or ``"cycle"`` (R^3); ``"equilibrium"`` or ``"manifold"`` (``continuation_n``).
+    x : ndarray, shape (n,)
+        The point (for a curve, cycle or manifold, its first point) at the largest eps.
     label : str
         The reason (or ``"dS = 0 cycle"``) and the point, for tables and legends.
     eps : ndarray, shape (k,)
     eigenvalues : ndarray, shape (k, 2), complex
         Tangent-plane eigenvalues; for a curve ``(0, normal eigenvalue)`` at its
         first point; for a cycle ``(0, Floquet exponent)``:
-        the last column is the informative one.
+        the last column is the informative one.  In R^n (``continuation_n``)
+        shape ``(k, d)``: the eigenvalues of ``CriticalPoint.eigenvalues``, sorted.
     verdicts, kinds : ndarray of str, shape (k,)
         Kinds are those of ``analysis.eigenvalue_kind`` (``"cycle"`` for cycles).
     displacement : float
@@ -146,6 +154,7 @@ def continuation(
     >>> [str(c) for c in top.changes]   # eps* = 2 sqrt((c - a)(c - b)) / (c z0 |b - a|) = 1.88562
     ['neutral/centre -> stable/focus at eps = 0+', 'stable/focus -> stable/node at eps = 1.88562']
     """
+    require_three(system, "`continuation` (equilibria found on a sampled level surface)", "`continuation_n`")
     eps_values = _check_eps_values(eps_values)
     top = system.with_effects(eps=float(eps_values[-1]))
     branches = [
@@ -158,6 +167,77 @@ def continuation(
         _follow_cycle(system, c, eps_values) for c in _equilibria.rest_cycles(top, H0, center=center, n=n) if c.periodic
     ]
     return Continuation(system.name, float(H0), branches)
+
+
+def continuation_n(
+    system: MetriplecticSystem,
+    H0: float,
+    eps_values: npt.ArrayLike,
+    *,
+    starts: npt.ArrayLike | None = None,
+    n_starts: int = 64,
+    box: Any = None,
+    seed: int = 0,
+    hess_H: Callable[[np.ndarray], Any] | None = None,
+    hess_S: Callable[[np.ndarray], Any] | None = None,
+    slide: bool = True,
+) -> Continuation:
+    """Follow the equilibria of ``critical_points`` on ``H = H0`` and their stability over ``eps_values``, in R^n.
+
+    The critical points of S on the level set are found at the largest eps (``analysis.critical_points`` with
+    ``starts``, ``n_starts``, ``box``, ``seed``, ``hess_H``, ``hess_S``, ``slide``); each that is an equilibrium
+    is re-solved at every eps (``analysis.critical_point`` from the point found at the next larger eps) and
+    linearised there, across its manifold when it lies on one.  Changes of verdict or kind are located by
+    bisection, as ``continuation`` does in R^3.  In the Fish form the points do not move with eps (``grad S =
+    lam grad H`` does not involve it; ``Branch.displacement`` records the check), and with the paper's metric the
+    verdict is fixed for every ``eps > 0`` by the type of the point (the inertia argument in
+    ``analysis.critical_points``): the changes are at ``eps = 0+`` (a centre becomes a focus) and between foci
+    and nodes.  For a GENERIC system eps scales M (``with_effects``).  Works for systems in R^3 too.
+
+    Parameters
+    ----------
+    system : MetriplecticSystemN, GenericSystem or MetriplecticSystem
+        Its own eps is ignored; ``system.with_effects(eps=e)`` is used for each ``e``.
+    H0 : float
+    eps_values : array_like, shape (k,)
+        Increasing values ``>= 0``, ``k >= 2``, the largest ``> 0``.
+
+    Returns
+    -------
+    Continuation
+        One ``Branch`` per equilibrium (``object`` ``"equilibrium"``, or ``"manifold"`` for a manifold of them);
+        its eigenvalues are those of ``CriticalPoint.eigenvalues``, sorted, ``(k, d)``.
+
+    Examples
+    --------
+    >>> import geomint
+    >>> fish = geomint.systems.random_fish(3, seed=1)
+    >>> result = continuation_n(fish, 1.0, [0.0, 0.5, 2.0], n_starts=8)
+    >>> low = result.branches[0]                  # the least S: a minimum, stable as soon as eps > 0
+    >>> low.verdicts.tolist(), [c.at_zero for c in low.changes][:1]
+    (['neutral', 'stable', 'stable'], [True])
+    """
+    eps_values = _check_eps_values(eps_values)
+    top = system.with_effects(eps=float(eps_values[-1]))
+    hessians = {"hess_H": hess_H, "hess_S": hess_S}
+    found = _critical.critical_points(
+        top, H0, starts=starts, n_starts=n_starts, box=box, seed=seed, slide=slide, **hessians
+    )
+    branches = [_follow_critical(system, H0, c, eps_values, hessians) for c in found if c.equilibrium]
+    return Continuation(system.name, float(H0), branches)
+
+
+def _follow_critical(system, H0, point, eps_values, hessians):
+    size = len(point.eigenvalues)
+
+    def state(eps, x):
+        c = _critical.critical_point(system.with_effects(eps=eps), H0, x, **hessians)
+        lam = np.sort_complex(c.eigenvalues) if len(c.eigenvalues) == size else np.full(size, np.nan, dtype=complex)
+        return c.x, lam, (c.verdict, c.kind)
+
+    where = f"a {point.manifold_dim}-dimensional set of equilibria through" if point.manifold_dim else "equilibrium at"
+    label = f"{point.type} of S (S = {point.S:.6g}): {where} {_point(point.x)}"
+    return _follow("manifold" if point.manifold_dim else "equilibrium", point.x, label, eps_values, state)
 
 
 def _state_of_point(system, H0, x, eps):
@@ -236,7 +316,10 @@ def _bisect(state, low, high, before, after, x):
 
 
 def _point(x):
-    return "(" + ", ".join(f"{v:.3g}" for v in np.where(np.abs(x) < 1e-9, 0.0, x)) + ")"
+    shown = [f"{v:.3g}" for v in np.where(np.abs(x) < 1e-9, 0.0, x)]
+    if len(shown) > 8:  # a long state: its first and last entries
+        shown = [*shown[:3], "...", *shown[-3:]]
+    return "(" + ", ".join(shown) + ")"
 
 
 def _check_eps_values(eps_values):

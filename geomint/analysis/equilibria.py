@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ._common import check_field, field_of
+from ._common import check_field, field_of, require_three
 from .propositions import REASONS, explain
 from .stability import eigenvalue_kind, linearise, verdict
 from .zero_sets import zero_set
@@ -180,6 +180,7 @@ def equilibria(
     >>> len(found)
     6
     """
+    require_three(system, "`equilibria` (on a sampled level surface)", "`critical_points`")
     F = field_of(system, check_field(field))
     zeros = zero_set(system, H0, F, center, n)
     found = []
@@ -224,6 +225,7 @@ def rest_cycles(
     >>> round(cycle.period, 2)                         # 2 pi, to the resolution of the traced points
     6.28
     """
+    require_three(system, "`rest_cycles` (curves on a level surface)", "`critical_points`")
     zeros = zero_set(system, H0, lambda X: np.atleast_2d(system.grad_S(X)), center, n)
     return [classify_cycle(system, points, closed) for kind, (points, closed) in zeros if kind == "curve"]
 

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
-from ._common import ZERO, as_points, check_field
+from ._common import ZERO, as_points, check_field, require_three
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -101,6 +101,7 @@ def conditions(
     >>> c.parallel.tolist(), c.xi_zero.tolist(), c.xi_P_zero.tolist()
     ([True, False], [True, False], [True, False])
     """
+    require_three(system, "`conditions` (the paper's propositions, stated with cross products)", "`critical_points`")
     X = as_points(X)
     if not (isinstance(rtol, (int, float)) and 0.0 <= rtol < 1.0):
         raise ValueError(f"`rtol` must be a number in [0, 1); got {rtol!r}.")
@@ -182,6 +183,7 @@ def gradient_zeros_explained(
     >>> gradient_zeros_explained(osc, [[1.0, 0.0, 0.0], [0.6, 0.0, 0.8], [0.0, 0.0, 1.0]]).tolist()
     [True, True, True]
     """
+    require_three(system, "`gradient_zeros_explained`", "`critical_points`")
     X = as_points(X)
     c = conditions(system, X, atol)
     nh2 = np.linalg.norm(np.atleast_2d(system.grad_H(X)), axis=1) ** 2
@@ -204,6 +206,7 @@ def explain(system: MetriplecticSystem, x: npt.ArrayLike, field: str = "xi") -> 
     >>> explain(geomint.systems.degenerate_example(1), [1.0, 0.0, 0.0])
     (False, ('dS = 0',), 'Section 2.3: non-regular point (P = 0), xi = eps xi_g')
     """
+    require_three(system, "`explain`", "`critical_point`")
     field = check_field(field)
     x = cast("npt.NDArray[np.float64]", as_points(x)[0])
     c = conditions(system, x[None], atol=1e-7 * (1.0 + float(np.linalg.norm(x))), rtol=1e-7)

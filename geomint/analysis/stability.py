@@ -1,42 +1,85 @@
-"""Linear stability on the level set: the tangent-plane Jacobian, its verdict and kind; its factorisation [R3].
+"""Linear stability on the level set, in R^3 and R^n: the tangent-space Jacobian, its verdict and kind.
 
 At an equilibrium the level set ``H = H0`` is invariant, so stability within
 it is decided by ``J_T = T Df T^T``, the Jacobian of the field restricted to
-the tangent plane ``grad H^perp`` (``T`` an orthonormal basis of it).
-``factorise`` writes ``J_T`` at a regular equilibrium with ``grad S || grad H``
-through the cross-product matrix ``[grad H x]``: it holds in R^3 only.
+the tangent space ``grad H^perp`` (``T`` an orthonormal basis of it): 2 x 2 in
+R^3, (n - 1) x (n - 1) in R^n.  ``verdict``, ``eigenvalue_kind`` and
+``hessian_type`` (the type of a critical point of S on the level set from the
+eigenvalues of its constrained Hessian) serve both.  ``factorise`` [R3] writes
+``J_T`` at a regular equilibrium with ``grad S || grad H`` through the
+cross-product matrix ``[grad H x]``: it holds in R^3 only.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from ._common import as_points, check_field, field_of
+from ._common import as_points, check_field, dimension, field_of, require_three
 
 if TYPE_CHECKING:
+    from collections.abc import Callable, Sequence
+
     import numpy.typing as npt
 
     from ..model.system import MetriplecticSystem
 
 
-def tangent_basis(system: MetriplecticSystem, x: npt.ArrayLike) -> npt.NDArray[np.float64]:
-    """An orthonormal basis ``(2, 3)`` of the tangent plane ``grad H(x)^perp`` of the level set.
+def tangent_basis(
+    system: MetriplecticSystem, x: npt.ArrayLike, conserved: Sequence[str | Callable[..., Any]] = ()
+) -> npt.NDArray[np.float64]:
+    """An orthonormal basis (rows) of the tangent space of the level set through ``x``.
+
+    Without ``conserved``: ``grad H(x)^perp``, shape ``(n - 1, n)`` (``(2, 3)`` in R^3).  With
+    ``conserved`` (``"S"`` for the system's S, or functions ``x -> grad C(x)`` of one state): the
+    orthogonal complement of ``grad H`` and those gradients, shape ``(n - r, n)``, ``r`` their rank
+    (singular values below ``1e-9`` of the largest, of the unit normals, count as zero: where
+    ``grad S || grad H`` the level sets touch and S removes no further direction).
 
     Raises ``ValueError`` at a critical point of H (no tangent plane).
     """
-    return _tangent_bases(system, as_points(x))[0]
+    n = dimension(system)
+    return _tangent_bases(system, as_points(x, n), conserved)[0]
 
 
-def _tangent_bases(system, X):
+def _tangent_bases(system, X, conserved=()):
     normal = np.atleast_2d(system.grad_H(X))
     size = np.linalg.norm(normal, axis=1)
     if np.any(size == 0.0):
         x = X[np.argmin(size)]
         raise ValueError(f"`x` must not be a critical point of H (grad H = 0 there); got {x.tolist()}.")
-    return np.linalg.svd((normal / size[:, None])[:, None, :])[2][:, 1:]
+    if not conserved:
+        return np.linalg.svd((normal / size[:, None])[:, None, :])[2][:, 1:]
+    normals = np.stack([normal, *(_conserved_gradients(system, X, c) for c in conserved)], axis=1)
+    norms = np.linalg.norm(normals, axis=2, keepdims=True)
+    unit = np.divide(normals, norms, out=np.zeros_like(normals), where=norms > 0.0)
+    _, s, Vt = np.linalg.svd(unit)
+    ranks = np.sum(s > 1e-9 * s[:, :1], axis=1)
+    if np.any(ranks != ranks[0]):
+        raise ValueError(
+            f"`conserved`: the normals of the level sets have rank {ranks.min()} at some points of `x` and "
+            f"{ranks.max()} at others; linearise those points separately."
+        )
+    return Vt[:, int(ranks[0]) :]
+
+
+def _conserved_gradients(system, X, c):
+    """``grad C`` at every row of ``X`` for an entry of ``conserved``: ``"S"`` or a function of one state."""
+    if isinstance(c, str):
+        if c != "S":
+            raise ValueError(f'`conserved` entries must be "S" or functions x -> grad C(x); got {c!r}.')
+        return np.atleast_2d(system.grad_S(X))
+    if not callable(c):
+        raise TypeError(f'`conserved` entries must be "S" or functions x -> grad C(x); got {c!r}.')
+    values = np.array([np.asarray(c(row.copy()), dtype=np.float64) for row in X])
+    if values.shape != X.shape:
+        raise ValueError(
+            f"`conserved`: a gradient function must return an array of shape ({X.shape[1]},); got shape "
+            f"{values.shape[1:]}."
+        )
+    return values
 
 
 def linearise(
@@ -44,27 +87,33 @@ def linearise(
     x: npt.ArrayLike,
     field: str = "xi",
     step: float | None = None,
+    conserved: Sequence[str | Callable[..., Any]] = (),
 ) -> tuple[np.ndarray, np.ndarray]:
     """The Jacobian of ``field`` restricted to the level set through ``x``, and its eigenvalues.
 
-        J_T = T Df(x) T^T,   T = tangent_basis(system, x)   (2 x 2),
+        J_T = T Df(x) T^T,   T = tangent_basis(system, x, conserved)   ((n - 1) x (n - 1); 2 x 2 in R^3),
 
     with ``Df`` by central differences of step ``step`` (default
-    ``1e-6 (1 + |x|)``).  At an equilibrium the level set is invariant, so the
-    eigenvalues of ``J_T`` decide stability within it (the third eigenvalue of
-    ``Df``, across the level set, is that of the conserved H and carries no
-    information).
+    ``1e-6 (1 + |x|)``).  At an equilibrium the level set is invariant (``d/dt H = 0``
+    gives ``grad H^T Df = 0`` there: ``Df`` maps into the tangent space), so the
+    eigenvalues of ``Df`` are those of ``J_T`` and a zero, across the level set, that
+    carries no information; ``J_T``'s decide stability within it.  Quantities the
+    field also conserves (``conserved``: ``"S"`` where the flow is Hamiltonian, S a
+    Casimir of P; the user's own as functions ``x -> grad C(x)``) remove their
+    normals too.  Works in R^3 and R^n (``system.dim``).
 
     Parameters
     ----------
     system : MetriplecticSystem
-    x : array_like, shape (3,) or (m, 3)
+    x : array_like, shape (n,) or (m, n)
     field : {"xi", "xi_P", "xi_g"}
+    step : float, optional
+    conserved : sequence of "S" or callables, optional
 
     Returns
     -------
-    jacobian : ndarray, shape (2, 2) (or (m, 2, 2))
-    eigenvalues : ndarray, shape (2,) (or (m, 2)), complex
+    jacobian : ndarray, shape (d, d) (or (m, d, d)), d = n - 1 without ``conserved``
+    eigenvalues : ndarray, shape (d,) (or (m, d)), complex
 
     Examples
     --------
@@ -74,13 +123,14 @@ def linearise(
     >>> np.round(np.sort_complex(lam), 6)   # a centre: +-i sqrt((c - a)(c - b)) z0
     array([0.-0.707107j, 0.+0.707107j])
     """
-    X = as_points(x)
+    n = dimension(system)
+    X = as_points(x, n)
     F = field_of(system, check_field(field))
     steps = 1e-6 * (1.0 + np.linalg.norm(X, axis=1)) if step is None else np.full(len(X), float(step))
-    shifts = np.concatenate([X + steps[:, None] * e for e in np.eye(3)] + [X - steps[:, None] * e for e in np.eye(3)])
-    values = F(shifts).reshape(6, len(X), 3)
-    Df = np.stack([(values[i] - values[i + 3]) / (2.0 * steps[:, None]) for i in range(3)], axis=2)
-    T = _tangent_bases(system, X)
+    shifts = np.concatenate([X + steps[:, None] * e for e in np.eye(n)] + [X - steps[:, None] * e for e in np.eye(n)])
+    values = F(shifts).reshape(2 * n, len(X), n)
+    Df = np.stack([(values[i] - values[i + n]) / (2.0 * steps[:, None]) for i in range(n)], axis=2)
+    T = _tangent_bases(system, X, conserved)
     jacobian = T @ Df @ np.transpose(T, (0, 2, 1))
     eigenvalues = np.linalg.eigvals(jacobian)
     return (jacobian[0], eigenvalues[0]) if np.ndim(x) == 1 else (jacobian, eigenvalues)
@@ -129,13 +179,7 @@ class Factorisation:
     @property
     def constrained_type(self) -> str:
         """``"minimum"``, ``"maximum"``, ``"saddle"`` or ``"degenerate"``: the critical point of S on ``H = H0``."""
-        low, high = np.linalg.eigvalsh(self.hessian)
-        tol = 1e-7 * (abs(low) + abs(high))
-        if low > tol:
-            return "minimum"
-        if high < -tol:
-            return "maximum"
-        return "saddle" if low < -tol and high > tol else "degenerate"
+        return hessian_type(np.linalg.eigvalsh(self.hessian))
 
     @property
     def node_eps(self) -> float:
@@ -164,6 +208,7 @@ def factorise(system: MetriplecticSystem, x: npt.ArrayLike, step: float | None =
     >>> bool(np.allclose(f.jacobian(2.0), linearise(body, [0.0, 0.0, 1.0])[0], atol=1e-8))
     True
     """
+    require_three(system, "`factorise` (the cross product with grad H)", "`linearise` and `critical_points`")
     x = cast("npt.NDArray[np.float64]", as_points(x)[0])
     gh, gs, j = (np.asarray(f(x), dtype=float) for f in (system.grad_H, system.grad_S, system.J))
     for name, v in (("grad H", gh), ("grad S", gs), ("J", j)):
@@ -205,14 +250,20 @@ def verdict(eigenvalues: npt.ArrayLike, scale: float, rtol: float = 1e-7) -> str
 
 
 def eigenvalue_kind(eigenvalues: npt.ArrayLike, scale: float, rtol: float = 1e-7) -> str:
-    """The type of a 2 x 2 linearisation: ``"node"``, ``"focus"``, ``"saddle"``, ``"centre"`` or ``"degenerate"``.
+    """The type of a linearisation: ``"node"``, ``"focus"``, ``"saddle"``, ``"centre"`` or ``"degenerate"``.
 
     Real parts and imaginary parts within ``rtol scale`` of zero count as zero;
-    ``"degenerate"``: an eigenvalue is zero.
+    ``"degenerate"``: an eigenvalue is zero; ``"saddle"``: real parts of both
+    signs; otherwise ``"node"`` if every eigenvalue is real, ``"centre"`` if every
+    one is imaginary, else ``"focus"``.  For the 2 x 2 linearisation in R^3 these
+    are the textbook types; in R^n they name the spectrum the same way (a
+    ``"focus"`` has a complex pair, a ``"node"`` none).
 
     Examples
     --------
     >>> eigenvalue_kind([-1 + 1j, -1 - 1j], 1.0), eigenvalue_kind([-1.0, 2.0], 1.0)
+    ('focus', 'saddle')
+    >>> eigenvalue_kind([-1 + 1j, -1 - 1j, -3.0], 1.0), eigenvalue_kind([-1 + 1j, -1 - 1j, 3.0], 1.0)
     ('focus', 'saddle')
     """
     lam = np.asarray(eigenvalues, dtype=complex)
@@ -220,6 +271,35 @@ def eigenvalue_kind(eigenvalues: npt.ArrayLike, scale: float, rtol: float = 1e-7
     if np.any(np.abs(lam) <= tol):
         return "degenerate"
     # numpy's stubs type .real/.imag of an array of unknown dtype wrongly
-    if np.all(np.abs(lam.imag) <= tol):  # pyright: ignore[reportAttributeAccessIssue]
-        return "saddle" if lam.real.min() < 0 < lam.real.max() else "node"  # pyright: ignore[reportAttributeAccessIssue]
-    return "centre" if np.all(np.abs(lam.real) <= tol) else "focus"  # pyright: ignore[reportAttributeAccessIssue]
+    real, imag = lam.real, lam.imag  # pyright: ignore[reportAttributeAccessIssue]
+    if real.min() < -tol and real.max() > tol:
+        return "saddle"
+    if np.all(np.abs(imag) <= tol):
+        return "node"
+    return "centre" if np.all(np.abs(real) <= tol) else "focus"
+
+
+def hessian_type(eigenvalues: npt.ArrayLike, rtol: float = 1e-7) -> str:
+    """The critical point of S on a level set from the eigenvalues of its constrained Hessian.
+
+    ``"minimum"`` if every eigenvalue is above ``tol = rtol (|min| + |max|)``,
+    ``"maximum"`` if every one is below ``-tol``, ``"saddle"`` if there are both,
+    else ``"degenerate"`` (an eigenvalue within ``tol`` of zero, none of the other sign).
+    The constrained Hessian is ``T (Hess S - lam Hess H) T^T`` at a point with
+    ``grad S = lam grad H`` (``Factorisation.hessian`` in R^3, ``CriticalPoint.hessian_eigenvalues`` in R^n).
+
+    Examples
+    --------
+    >>> hessian_type([1.0, 2.0]), hessian_type([-1.0, 2.0, 3.0]), hessian_type([0.0, -1.0])
+    ('minimum', 'saddle', 'degenerate')
+    """
+    values = np.sort(np.real(np.asarray(eigenvalues)).astype(float))
+    if values.size == 0:
+        return "degenerate"
+    low, high = float(values[0]), float(values[-1])
+    tol = rtol * (abs(low) + abs(high))
+    if low > tol:
+        return "minimum"
+    if high < -tol:
+        return "maximum"
+    return "saddle" if low < -tol and high > tol else "degenerate"

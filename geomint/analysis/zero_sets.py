@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from . import level_set as _level_set
-from ._common import ZERO, as_points, check_field, check_level, field_of
+from ._common import ZERO, as_points, check_field, check_level, field_of, require_three
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -44,6 +44,7 @@ def refine(system: MetriplecticSystem, x0: npt.ArrayLike, H0: float, field: str 
     >>> bool(np.allclose(x, [0.0, 0.0, 1.0], rtol=0.0, atol=1e-12))
     True
     """
+    require_three(system, "`refine`", "`critical_point`")
     x0 = cast("npt.NDArray[np.float64]", as_points(x0)[0])
     H0 = check_level(H0)
     F = field_of(system, check_field(field))
