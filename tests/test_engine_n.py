@@ -220,7 +220,7 @@ COMPOSED = (
 
 @settings(max_examples=20)
 @given(
-    n=st.sampled_from([2, 4, 16]),
+    n=st.sampled_from([2, 4, 16, 64]),
     seed=st.integers(0, 2**16),
     eps=st.sampled_from([0.0, 0.01, 0.5]),
     h=st.floats(0.005, 0.05),
