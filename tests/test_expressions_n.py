@@ -304,6 +304,9 @@ def test_beyond_the_symbolic_budget_the_constructors_numeric_checks_remain(monke
     assert _pendula(4).expression_checks == "numeric"
     with pytest.raises(ValueError, match=r"^`L` must be skew-symmetric"):
         _pendula(4, L={"q[i], p[i]": "1", "p[i], q[i]": "1"})
+    monkeypatch.undo()  # what the constructor refused is not in the cache: the symbolic check runs again
+    with pytest.raises(ValueError, match=r"^`L` is not skew"):
+        _pendula(4, L={"q[i], p[i]": "1", "p[i], q[i]": "1"})
 
 
 def test_check_false_skips_the_symbolic_checks_too():

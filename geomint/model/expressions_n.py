@@ -141,7 +141,9 @@ def build(
     Returns ``{"H", "grad_H", "S", "grad_S", "P", "M" (None without a metric), "params" (list), "dim",
     "variables", "checks"}``: ``checks`` is ``"symbolic"``, ``"numeric"`` (symbolic checks skipped beyond
     ``MAX_CHECKED_TERMS``: the constructor's at the samples remain), ``"skipped"`` (``check=False``) or
-    ``"cached"`` (generated and checked by an earlier call with the same formulas).
+    ``"cached"`` (generated and checked by an earlier call with the same formulas), and ``"remember"``: call it
+    once the constructor's own checks have passed, to record the module in the index (a system the constructor
+    refuses is never found there).
     """
     E_name, P_name, M_name = FORMS[form]
     if form == "GENERIC" and metric is None:
@@ -162,7 +164,7 @@ def build(
     out = {"params": list(values.values()), "dim": coords.n, "variables": tuple(coords.names)}
     module = _cached_module(key, values)
     if module is not None:
-        return {**_functions(module), **out, "checks": "cached"}
+        return {**_functions(module), **out, "checks": "cached", "remember": lambda: None}
 
     from . import expressions_symbolic  # sympy: only for formulas not generated before
 
@@ -170,8 +172,8 @@ def build(
         FORMS[form], coords, values, define, energy, S, poisson, metric, samples, check
     )
     module = expressions_cache.compile_functions(text)
-    _remember(key, module, dict(values) if used_values else None)  # values-dependent: a hit with others checks anew
-    return {**_functions(module), **out, "checks": checks}
+    held_at = dict(values) if used_values else None  # values-dependent: a hit with other values checks anew
+    return {**_functions(module), **out, "checks": checks, "remember": lambda: _remember(key, module, held_at)}
 
 
 def _functions(module):
@@ -286,6 +288,7 @@ def fish_system(
         "Fish", variables=variables, sizes=sizes, define=define, H=H, S=S, P=P, metric=metric, params=params or {}
     )
     system.expression_checks = built["checks"]
+    built["remember"]()
     return system
 
 
@@ -336,4 +339,5 @@ def generic_system(
         "GENERIC", variables=variables, sizes=sizes, define=define, E=E, S=S, L=L, M=M, params=params or {}
     )
     system.expression_checks = built["checks"]
+    built["remember"]()
     return system
