@@ -58,6 +58,7 @@ RUNNABLE_PAGES = [
     "getting-started.md",
     "coming-from-scipy.md",
     "guides/own-system.md",
+    "guides/formulas_rn.md",
     "guides/analysis.md",
     "guides/ensembles.md",
     "../README.md",

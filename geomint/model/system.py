@@ -408,13 +408,34 @@ class MetriplecticSystem:
         params: Mapping[str, float] | None = None,
         eps: float = 1.0,
         name: str = "expressions",
+        variables: Sequence[str] | None = None,
+        **rn: Any,
     ) -> MetriplecticSystem:
         """A system from formulas (strings), e.g. ``H="(y**2 + z**2)/2 - r*z"``, ``J=("-x", "0", "sigma")``.
 
         Text is parsed by a whitelist grammar (never evaluated), gradients are exact, the
         structure is checked symbolically, and generated numba code is cached on disk:
         see ``geomint.model.expressions.build`` for the grammar and every argument.
+
+        With ``variables`` (named coordinates, families ``"q[1..N]"``; any number of them, 3 included) the
+        system is one in R^n: ``MetriplecticSystemN.from_expressions``, which also takes ``metric``,
+        ``sizes``, ``define``, ``samples`` and ``check``.  Without it the coordinates are x, y, z and the
+        system is the R^3 engine's.
         """
+        if variables is not None:
+            if J is not None:
+                raise TypeError(
+                    "`J` (an axial vector) is the R^3 form: with `variables` give `P`, the (n, n) skew matrix "
+                    '(n lists of n formulas, or rules {"q, p": "1", "p, q": "-1"}).'
+                )
+            return MetriplecticSystem._rn_class.from_expressions(  # pyright: ignore[reportOptionalMemberAccess]
+                variables=variables, H=H, S=S, P=P, params=params, eps=eps, name=name, **rn
+            )
+        if rn:
+            raise TypeError(
+                f"{', '.join(f'`{k}`' for k in rn)}: arguments of systems in R^n written as formulas: give "
+                "`variables` too (the coordinates' names)."
+            )
         from . import expressions
 
         system = cls(**expressions.build(H=H, S=S, J=J, P=P, params=params, eps=eps, name=name))

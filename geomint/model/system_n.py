@@ -476,11 +476,55 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         )
 
     @classmethod
-    def from_expressions(cls, **kwargs: Any) -> MetriplecticSystem:
-        """Not yet in R^n: systems written as formulas are R^3 only for now."""
-        raise NotImplementedError(
-            "systems written as formulas (from_expressions) are R^3 only for now: write the R^n system's "
-            "functions with numba (see MetriplecticSystemN's docstring)."
+    def from_expressions(  # pyright: ignore[reportIncompatibleMethodOverride]  # the R^n fields
+        cls,
+        *,
+        variables: Any,
+        H: str,
+        S: str,
+        P: Any,
+        params: Any = None,
+        eps: float = 1.0,
+        metric: Any = None,
+        sizes: Any = None,
+        define: Any = None,
+        name: str = "expressions",
+        samples: npt.ArrayLike | None = None,
+        check: bool = True,
+    ) -> MetriplecticSystemN:
+        """A Fish-form system in R^n from formulas with named variables (``geomint.model.expressions_n``).
+
+        ``variables`` names the coordinates in order: ``"s"`` one, ``"q[N]"`` or ``"q[1..N]"`` a family
+        (bounds from ``sizes``, integers fixed at generation); H and S are formulas (``sum(p[i]**2/2, i)``);
+        ``P`` and ``metric`` (optional, the user's G) are n lists of n formulas or rules
+        ``{"q[i], p[i]": "1", "p[i], q[i]": "-1"}``; ``params`` ``{name: float}`` (read at run time),
+        ``define`` ``{name: formula}`` (sub-formulas).  Gradients are exact (sympy), the structure is checked
+        symbolically, the generated code is cached on disk (a second process loads it).  ``samples`` and
+        ``check`` are the constructor's.
+
+        >>> import geomint
+        >>> system = geomint.MetriplecticSystemN.from_expressions(
+        ...     variables=("q", "p", "s"), H="(q**2 + p**2)/2", S="s**2/2",
+        ...     P={"q, p": "1", "p, q": "-1"}, eps=0.5)
+        >>> system.xi([1.0, 0.0, 1.0]).tolist()
+        [0.0, -1.0, -0.5]
+        """
+        from . import expressions_n
+
+        return expressions_n.fish_system(
+            cls,
+            variables=variables,
+            H=H,
+            S=S,
+            P=P,
+            params=params,
+            eps=eps,
+            metric=metric,
+            sizes=sizes,
+            define=define,
+            name=name,
+            samples=samples,
+            check=check,
         )
 
 
@@ -544,6 +588,54 @@ class GenericSystem(MetriplecticSystemN):
             samples=samples,
             check=check,
             variables=variables,
+        )
+
+    @classmethod
+    def from_expressions(  # pyright: ignore[reportIncompatibleMethodOverride]  # GENERIC's fields
+        cls,
+        *,
+        variables: Any,
+        E: str,
+        S: str,
+        L: Any,
+        M: Any,
+        params: Any = None,
+        sizes: Any = None,
+        define: Any = None,
+        name: str = "expressions",
+        samples: npt.ArrayLike | None = None,
+        check: bool = True,
+    ) -> GenericSystem:
+        """A GENERIC system from formulas with named variables (``geomint.model.expressions_n``).
+
+        As ``MetriplecticSystemN.from_expressions`` with E, S, L (skew, ``L grad S = 0``) and M (symmetric,
+        ``M grad E = 0``; positive semidefiniteness is checked at the samples).  N damped pendula:
+
+        >>> import geomint
+        >>> pendula = geomint.GenericSystem.from_expressions(
+        ...     variables=("q[1..N]", "p[1..N]", "s"), sizes={"N": 2}, params={"gamma": 0.5},
+        ...     E="sum(p[i]**2/2 + cos(q[i]), i) + s", S="s",
+        ...     L={"q[i], p[i]": "1", "p[i], q[i]": "-1"},
+        ...     M={"p[i], p[i]": "gamma", "p[i], s": "-gamma*p[i]", "s, p[i]": "-gamma*p[i]",
+        ...        "s, s": "gamma*sum(p[i]**2, i)"})
+        >>> pendula.variables, pendula.dS_dt([0.0, 0.0, 1.0, 2.0, 0.0])
+        (('q1', 'q2', 'p1', 'p2', 's'), 2.5)
+        """
+        from . import expressions_n
+
+        return expressions_n.generic_system(
+            cls,
+            variables=variables,
+            E=E,
+            S=S,
+            L=L,
+            M=M,
+            params=params,
+            sizes=sizes,
+            define=define,
+            name=name,
+            samples=samples,
+            check=check,
         )
 
     def E(self, x: npt.ArrayLike) -> Any:  # a float at one state (n,), an array at many (m, n)
