@@ -125,6 +125,8 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         checked on its matrix, formed column by column, for n <= 32, and by
         random probes (``u . P v = -v . P u``, ``v . G v <= 0``) above.
 
+    Notes
+    -----
     x and params reach the functions as contiguous float64 arrays; vectors are
     returned as contiguous float64 arrays (not tuples) of length n, matrices as
     (n, n) arrays.  Every method below accepts one state ``(n,)`` or many ``(m, n)``.
@@ -554,6 +556,8 @@ class GenericSystem(MetriplecticSystemN):
     params, dim, name, samples, check, variables
         As for ``MetriplecticSystemN``; the checks name ``E``, ``grad_E``, ``L`` and ``M``.
 
+    Notes
+    -----
     ``E(x)`` is ``H(x)``, ``L(x)`` is ``P(x)`` and ``M(x)`` is ``D(x)``.
     Conserved quantities besides E are not declared (yet).
     """

@@ -88,6 +88,8 @@ class Solution:
         rises (the Fish form, R^3 and ``MetriplecticSystemN``), +1.0 where it
         never falls (the entropy of a ``GenericSystem``).
 
+    Notes
+    -----
     Counting S's moves (over saved consecutive pairs, in forward time, beyond
     ``ulps`` ulps of S; the properties at 16 ulps):
 
