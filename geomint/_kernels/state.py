@@ -39,7 +39,7 @@ def _typed_n(value):
     """A state or model type of the R^n path (typing)."""
     if isinstance(value, types.Array):
         return True
-    return isinstance(value, types.BaseNamedTuple) and value.instance_class is ModelN
+    return isinstance(value, types.BaseNamedTuple) and getattr(value, "instance_class", None) is ModelN
 
 
 @njit(inline="always")

@@ -180,7 +180,7 @@ def lapack_factor(a, pivots):
 
     if not np.all(np.isfinite(a)):
         return False
-    _, piv, info = scipy.linalg.lapack.dgetrf(a.T, overwrite_a=1)
+    _, piv, info = scipy.linalg.lapack.dgetrf(a.T, overwrite_a=1)  # pyright: ignore[reportAttributeAccessIssue]
     pivots[:] = piv + 1
     return info == 0
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import functools
 import numbers
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Self
 
 import numpy as np
 
@@ -121,7 +121,7 @@ class MetriplecticSystem:
         if rn:
             MetriplecticSystem._rn_class = cls
 
-    def __new__(cls, *args: Any, dim: Any = None, **kwargs: Any) -> MetriplecticSystem:
+    def __new__(cls, *args: Any, dim: Any = None, **kwargs: Any) -> Self:
         """``MetriplecticSystem(..., dim=n)`` with n other than 3 makes a system in R^n (``MetriplecticSystemN``,
         whose ``__init__`` then takes the same arguments); without ``dim``, or with ``dim=3``, the system in R^3."""
         if cls is MetriplecticSystem and dim is not None and not _is_three(dim):
@@ -135,7 +135,7 @@ class MetriplecticSystem:
                         f"`{key}` is an argument of the systems in R^n: pass `dim` (the dimension n) too; in R^3 "
                         "the metric is the paper's g, and the checks' samples are fixed."
                     )
-        return object.__new__(cls)
+        return object.__new__(cls)  # pyright: ignore[reportReturnType]  # an instance of cls, which is Self
 
     def __init__(
         self,

@@ -222,7 +222,10 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
     def _check(self, structure):
         """Shapes at the first sample; the structure at all of them when ``structure``."""
         f, n = self.functions, self.dim
-        wanted = {self._names["grad_H"]: (f.grad_H, (n,)), self._names["grad_S"]: (f.grad_S, (n,))}
+        wanted: dict[str, tuple[Any, tuple[Any, ...]]] = {
+            self._names["grad_H"]: (f.grad_H, (n,)),
+            self._names["grad_S"]: (f.grad_S, (n,)),
+        }
         for role in ("P", "M"):
             if getattr(f, role) is not None:
                 wanted[self._names[role]] = (getattr(f, role), (n, n))
@@ -258,9 +261,8 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
             matrices = tuple(first_class(no_metric if fn is None else fn) for fn in (f.P, f.M))
             actions = tuple(first_class(no_action if fn is None else fn, action=True) for fn in (f.P_apply, f.M_apply))
             handles = tuple(first_class(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S))
-            self._model = ModelN(  # pyright: ignore[reportCallIssue]
-                *handles, *matrices, self._params, self.metric, self.direction, self._origin(), *actions, self.actions
-            )
+            fields = (*handles, *matrices, self._params, self.metric, self.direction, self._origin(), *actions)
+            self._model = ModelN(*fields, self.actions)  # pyright: ignore[reportCallIssue]  # 12 fields and actions
         return self._model
 
     def _origin(self, params=None):
@@ -330,13 +332,13 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
             )
         return np.ascontiguousarray(np.atleast_2d(X)), X.ndim == 1
 
-    def _call(self, role, x, v=None):
+    def _call(self, role, x, v=None) -> Any:  # a float for H and S, an array otherwise
         """The user function of ``role`` (``H``, ``grad_H``, ``S``, ``grad_S``, ``P``, ``M``, ``P_apply``,
         ``M_apply``; an action applied to ``v``) at the state ``x``; an exception it raises becomes a
         ``UserFunctionError`` naming it by the user's name.  ``P`` and ``M`` given as actions are formed column by
         column (n actions)."""
         f = getattr(self.functions, role)
-        if f is None and role in ("P", "M"):
+        if f is None:  # P or M given as an action (``_check`` made sure one form is given)
             return np.column_stack([self._call(role + "_apply", x, e) for e in np.eye(self.dim)])
         x = x if x.flags.c_contiguous else np.ascontiguousarray(x)
         try:
@@ -348,7 +350,7 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
             raise _user_errors.UserFunctionError(self._names[role], x.tolist(), error) from error
         return float(value) if role in ("H", "S") else np.asarray(value, dtype=np.float64)
 
-    def _apply(self, role, x, v):
+    def _apply(self, role, x, v) -> Any:
         """``P(x) v`` (``role`` "P") or ``M(x) v`` ("M") by the operator's native form: its action, or its matrix
         times v."""
         if getattr(self.functions, role + "_apply") is not None:
@@ -364,7 +366,7 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         M = None if self.metric == PAPER_METRIC else self._call("M", x)
         return (*values, self._call("P", x), M)
 
-    def _over(self, x, one):
+    def _over(self, x, one) -> Any:
         """``one(state)`` at one state ``(n,)``, stacked over many ``(m, n)``."""
         X, single = self._states(x)
         values = [one(row) for row in X]

@@ -534,7 +534,7 @@ def raised_message(
         functions = {"H": f.H, "grad_H": f.grad_H, "S": f.S, "grad_S": f.grad_S, poisson: f.poisson}
     else:
         poisson = "P"
-        functions = {"H": f.H, "grad_H": f.grad_H, "S": f.S, "grad_S": f.grad_S, "P": f.P}
+        functions = {"H": f.H, "grad_H": f.grad_H, "S": f.S, "grad_S": f.grad_S, "P": getattr(f, "P")}  # noqa: B009
     name = error and _user_errors.raised_by(error, functions)
     if name:
         return f"the user function `{name}` raised {error!r}"

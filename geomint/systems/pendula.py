@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numbers
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -137,7 +138,7 @@ def damped_pendula(N: int = 4, gamma: float = 0.5, form: str = "action") -> Gene
         raise ValueError(f"`gamma` must be finite and >= 0; got {gamma!r}.")
     if form not in FORMS:
         raise ValueError(f"`form` must be one of {FORMS}; got {form!r}.")
-    operators = dict(L_apply=_L_apply, M_apply=_M_apply) if form == "action" else dict(L=_L, M=_M)
+    operators: dict[str, Any] = dict(L_apply=_L_apply, M_apply=_M_apply) if form == "action" else dict(L=_L, M=_M)
     return GenericSystem(
         E=_E,
         grad_E=_grad_E,
