@@ -82,7 +82,7 @@ def pendula_floor(x0, gamma, h, steps):
     """``steps`` exact steps of the damped pendula (``systems.damped_pendula``), written out: the discrete
     gradient of the separable E, ``(dE)_q = (cos q' - cos q) / (q' - q)``, ``(dE)_p = (p + p') / 2``, ``(dE)_s = 1``,
     and M built from its entries (``M grad E = 0`` holds for the discrete gradient with no projection,
-    DESIGN_RN section 2)::
+    docs/engine_rn.md, "The discrete step")::
 
         q' = q + h pbar,   p' = p - h (dc + gamma pbar),   s' = s + h gamma |pbar|^2,
 

@@ -627,7 +627,7 @@ def test_the_two_truncations_differ_and_agree_where_they_should():
 
 @pytest.mark.parametrize("N", [5, 7, 9])
 @pytest.mark.parametrize("make", [euler_zeitlin, euler_galerkin])
-def test_euler_data_give_DESIGN_RNs_H0_and_S0(make, N):
+def test_euler_data_give_the_reference_H0_and_S0(make, N):
     system, x0 = make(N), euler_initial_state(N)
     assert system.dim == N * N - 1 == x0.size
     assert system.H(x0) == 1.1375 and system.S(x0) == 1.3125
@@ -693,7 +693,7 @@ def test_xi_of_the_generic_systems_is_the_hand_formula(case):
     np.testing.assert_allclose(system.xi(x), hand, rtol=1e-12, atol=1e-12 * (1 + np.abs(hand).max()))
 
 
-def test_pendula_and_gas_come_to_rest_where_DESIGN_RN_says():
+def test_pendula_and_gas_come_to_rest_where_the_reference_says():
     pendula = damped_pendula(3)
     x0 = np.array([0.1, 2.0, -1.0, 0.5, 0.0, -0.3, 0.2])
     rest = np.concatenate([np.full(3, np.pi), np.zeros(3), [pendula.E(x0) + 3]])
@@ -741,7 +741,7 @@ def test_gas_containers_default_samples_stay_in_the_domain():
         )
 
 
-def test_the_flows_reach_DESIGN_RNs_limits():
+def test_the_flows_reach_the_reference_limits():
     """The model's field integrated by scipy (no geomint kernel): S_inf = E_0 + N for the pendula, 3 ln(E_0 / 2)
     for the gas containers, H_0 for Euler's selective decay."""
     from scipy.integrate import solve_ivp

@@ -18,7 +18,7 @@ L skew with ``L grad S = 0``, M symmetric positive semidefinite with ``M grad E 
 is conserved and the entropy S never falls.  It is the Fish form with H = E, P = L and
 the metric M (eps = 1), the entropy rising instead of falling (``direction`` +1).
 
-The kernels receive both as ``layout.ModelN``.  Design notes: /work/shared/DESIGN_RN.md, section 1.
+The kernels receive both as ``layout.ModelN``.  The scheme and its reasons: docs/engine_rn.md.
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ The state ``x`` holds the real and imaginary parts of ``omega_k`` over the half 
 named ``re_k1_k2`` and ``im_k1_k2`` (``euler_variables``).
 
 References: V. Zeitlin, Physica D 49 (1991) 353 (the sine bracket); the selective decay of a metriplectic
-bracket, Morrison, Physica D 18 (1986) 410; DESIGN_RN.md section 5.
+bracket, Morrison, Physica D 18 (1986) 410; docs/engine_rn.md, "Reference problems".
 """
 
 from __future__ import annotations
@@ -196,7 +196,7 @@ _FORMULAS = """
     ``|grad H|^2 = 4 K``, ``K = sum_half |omega_k|^2 / |k|^4``, the dissipative part alone is
     ``d omega_k / dt = 8 eps (H / |k|^2 - K) omega_k``: near the end (K close to H), ``S - S_inf``
     decays at the rate ``8 eps H_0`` of the shell |k|^2 = 2.  ``n = N^2 - 1`` (24, 48, 80,
-    288, 1088 for N = 5, 7, 9, 17, 33); ``euler_initial_state`` gives DESIGN_RN's data.
+    288, 1088 for N = 5, 7, 9, 17, 33); ``euler_initial_state`` gives the reference data.
 """
 
 
@@ -239,8 +239,8 @@ def euler_variables(N: int) -> tuple[str, ...]:
 
 
 def euler_initial_state(N: int = 5) -> npt.NDArray[np.float64]:
-    """DESIGN_RN's data: ``omega(1, 0) = 1``, ``omega(1, 1) = 0.5``, ``omega(2, 1) = 0.25 i`` (and conjugates), the
-    other modes 0; then ``H = 1 + 0.25 / 2 + 0.0625 / 5 = 1.1375`` and ``S = 1 + 0.25 + 0.0625 = 1.3125``.
+    """The reference data of docs/engine_rn.md: ``omega(1, 0) = 1``, ``omega(1, 1) = 0.5``, ``omega(2, 1) = 0.25 i``
+    (and conjugates), the other modes 0; then ``H = 1 + 0.25 / 2 + 0.0625 / 5 = 1.1375`` and ``S = 1 + 0.25 + 0.0625 = 1.3125``.
     Needs N >= 5 (the mode (2, 1))."""
     N = _check_N(N)
     if N < 5:

@@ -1,4 +1,7 @@
-"""Two gas containers with a moving, heat-conducting wall: a GENERIC system in R^4 (DESIGN_RN section 5)."""
+"""Two gas containers with a moving, heat-conducting wall: a GENERIC system in R^4.
+
+A reference problem of docs/engine_rn.md.
+"""
 
 from __future__ import annotations
 
@@ -75,7 +78,7 @@ def gas_containers(gamma: float = 1.0) -> GenericSystem:
         T_i = dE / dS_i,   L canonical on (q, p),
         M = gamma [[T_1^-2, -(T_1 T_2)^-1], [-(T_1 T_2)^-1, T_2^-2]] on (S_1, S_2) = gamma w w^T,  w = (1/T_1, -1/T_2).
 
-    ``M grad E = gamma w (w . (T_1, T_2)) = 0`` exactly, as DESIGN_RN states M, and
+    ``M grad E = gamma w (w . (T_1, T_2)) = 0`` exactly, as the reference problem states M, and
     ``dS/dt = gamma (1/T_1 - 1/T_2)^2 >= 0``: heat flows from the hotter gas to
     the colder.  The wall obeys ``dp/dt = T_1 / q - T_2 / (2 - q)`` (the pressure
     difference, ``U_i = (3/2) T_i`` for a monatomic gas).  Defined for 0 < q < 2:
@@ -88,7 +91,7 @@ def gas_containers(gamma: float = 1.0) -> GenericSystem:
     compresses the gases adiabatically and unequally, so it produces entropy until it stops.
 
     Reference: H. C. Oettinger, Beyond Equilibrium Thermodynamics (Wiley, 2005); X. Shang and
-    H. C. Oettinger, Proc. R. Soc. A 476 (2020) 20190446; DESIGN_RN.md section 5.
+    H. C. Oettinger, Proc. R. Soc. A 476 (2020) 20190446; docs/engine_rn.md, "Reference problems".
     """
     gamma = real("gamma", gamma)
     if not 0.0 <= gamma < float("inf"):

@@ -89,7 +89,7 @@ def heat_bath_oscillator(
     (``heat_bath_closed_form``), whatever the bath.  ``T ds/dt`` is the power the friction dissipates.
 
     Reference: H. C. Oettinger, Beyond Equilibrium Thermodynamics (Wiley, 2005), the damped oscillator with a
-    heat bath; DESIGN_RN.md section 5.
+    heat bath; docs/engine_rn.md, "Reference problems".
     """
     params = [
         _positive("m", m),

@@ -1,4 +1,7 @@
-"""N damped pendula sharing one entropy: a GENERIC system of any size, block-sparse (DESIGN_RN section 5)."""
+"""N damped pendula sharing one entropy: a GENERIC system of any size, block-sparse.
+
+A reference problem of docs/engine_rn.md.
+"""
 
 from __future__ import annotations
 
@@ -129,7 +132,7 @@ def damped_pendula(N: int = 4, gamma: float = 0.5, form: str = "action") -> Gene
     (O(n) each: a step costs O(n), docs/engine_rn_speed.md); ``form="matrix"`` as
     (n, n) matrices (O(n^2) per product, a dense Jacobian O(n^3)): the same system.
 
-    Reference: DESIGN_RN.md section 5; GENERIC: Grmela and Oettinger, Phys. Rev. E 56 (1997) 6620.
+    Reference: docs/engine_rn.md, "Reference problems"; GENERIC: Grmela and Oettinger, Phys. Rev. E 56 (1997) 6620.
     """
     if isinstance(N, bool) or not isinstance(N, numbers.Integral) or N < 1:
         raise ValueError(f"`N` must be an integer >= 1 (the number of pendula); got {N!r}.")

@@ -1,4 +1,7 @@
-"""Random metriplectic systems in the Fish form, any n: not quadratic, P depending on x (DESIGN_RN section 5)."""
+"""Random metriplectic systems in the Fish form, any n: not quadratic, P depending on x.
+
+A reference problem of docs/engine_rn.md.
+"""
 
 from __future__ import annotations
 
@@ -75,7 +78,7 @@ def _P(x, p):
 
 
 def random_fish(n: int = 6, seed: int = 0, eps: float = 1.0) -> MetriplecticSystemN:
-    """A random metriplectic system in R^n in the Fish form (DESIGN_RN section 5).
+    """A random metriplectic system in R^n in the Fish form (docs/engine_rn.md, "Reference problems").
 
         H = x^T D x / 2 + 0.2 sum_i cos x_i,          D diagonal, entries uniform in [0.5, 2],
         S = |x|^2 / 2 + 0.075 sum_i x_i^4,
@@ -88,7 +91,7 @@ def random_fish(n: int = 6, seed: int = 0, eps: float = 1.0) -> MetriplecticSyst
     (2 coefficients, D, A, then B_1 ... B_n flattened: ``n^3 + n^2 + n + 2`` numbers),
     so one compilation serves every n and seed; ``n <= 256``.
 
-    Reference: the construction of DESIGN_RN.md section 5; Fish form as in the paper, section 1.
+    Reference: the construction of docs/engine_rn.md, "Reference problems"; Fish form as in the paper, section 1.
     """
     if isinstance(n, bool) or not isinstance(n, numbers.Integral) or not 2 <= n <= MAX_N:
         raise ValueError(f"`n` must be an integer in [2, {MAX_N}] (the dimension); got {n!r}.")
