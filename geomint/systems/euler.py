@@ -240,8 +240,8 @@ def euler_variables(N: int) -> tuple[str, ...]:
 
 def euler_initial_state(N: int = 5) -> npt.NDArray[np.float64]:
     """The reference data of docs/engine_rn.md: ``omega(1, 0) = 1``, ``omega(1, 1) = 0.5``, ``omega(2, 1) = 0.25 i``
-    (and conjugates), the other modes 0; then ``H = 1 + 0.25 / 2 + 0.0625 / 5 = 1.1375`` and ``S = 1 + 0.25 + 0.0625 = 1.3125``.
-    Needs N >= 5 (the mode (2, 1))."""
+    (and conjugates), the other modes 0; then ``H = 1 + 0.25 / 2 + 0.0625 / 5 = 1.1375`` and
+    ``S = 1 + 0.25 + 0.0625 = 1.3125``.  Needs N >= 5 (the mode (2, 1))."""
     N = _check_N(N)
     if N < 5:
         raise ValueError(f"`N` must be at least 5 for the mode (2, 1) of the data; got {N}.")
