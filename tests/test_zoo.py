@@ -276,6 +276,37 @@ def test_a_function_turning_nan_is_reported_with_the_states_before_it(method, sa
     )
 
 
+@pytest.mark.parametrize("save_every", [1, 7, 10, None])
+@pytest.mark.parametrize("method", [geomint.RK4(), geomint.DormandPrince54()], ids=_ids)
+def test_S_turning_nan_under_an_explicit_method_is_never_saved(method, save_every):
+    """S is NaN beyond |y| = 5 while grad S stays finite, so an explicit step goes on; a run saving every k-th
+    state evaluates H and S at those states only.  It used to stop at the next saved state and save the state
+    before it as the last good one, though S was NaN there too (RK4, save_every = 10: step 50 failed, its last row,
+    t = 4.9, had S = NaN; save_every = 7: step 49, t = 4.8; None: step 80, t = 7.9).  Now no saved row has a
+    non-finite H or S: where the state before the failing one is beyond the domain too, the run is cut back to
+    the last saved state and the failure reported at the step after it, naming S; every row kept is the clean
+    run's state."""
+    h, y0 = 0.1, 0.55
+    clean = geomint.solve(
+        zoo.drifter_with_bounded_S(radius=1e300), [0.0, y0, 0.0], (0.0, 8.0), h, method=method, save_every=1
+    )
+    sol = geomint.solve(
+        zoo.drifter_with_bounded_S(radius=5.0), [0.0, y0, 0.0], (0.0, 8.0), h, method=method, save_every=save_every
+    )
+    crossing = int(np.ceil((5.0 - y0) / h))  # the first state beyond the radius
+    every = save_every or clean.n_steps
+    assert sol.status == -2 and not sol.success, sol.message
+    assert np.all(np.isfinite(sol.H)) and np.all(np.isfinite(sol.S)), (sol.t[-1], sol.S[-1])
+    assert "`S`" in sol.message, sol.message
+    assert f"{len(sol.t)} saved state" in sol.message, sol.message
+    assert crossing - every < sol.failed_step <= crossing, (sol.failed_step, crossing)
+    assert sol.n_steps == sol.failed_step - 1
+    assert sol.t[-1] == pytest.approx((sol.failed_step - 1) * h)
+    steps = np.rint(sol.t / h).astype(int)
+    np.testing.assert_array_equal(sol.x, clean.x[steps])
+    np.testing.assert_array_equal(sol.S, clean.S[steps])
+
+
 @pytest.mark.parametrize(
     "method",
     [m for m in gt.structure_preserving_methods() if isinstance(m, geomint.integrators.DiscreteGradient)],

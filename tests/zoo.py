@@ -418,3 +418,24 @@ def drifter(radius=5.0, eps=0.5):
         params=[radius],
         name="drifter",
     )
+
+
+# -- the drifter with H defined everywhere and S NaN beyond |y| = R, grad S finite: the field, hence an explicit
+#    step, never sees the boundary; only S at the states does --------------------------------------------------
+@numba.njit(cache=True)
+def _bounded_S(x, p):
+    return x[0] if abs(x[1]) <= p[1] else np.nan
+
+
+def drifter_with_bounded_S(radius=5.0, eps=0.5):
+    """``H = z``, ``S = x`` (NaN beyond ``|y| = radius``; grad S is finite everywhere), ``J = (1, 0, 0)``."""
+    return geomint.MetriplecticSystem(
+        H=_drift_H,
+        grad_H=_drift_grad_H,
+        S=_bounded_S,
+        grad_S=_drift_grad_S,
+        J=_drift_J,
+        eps=eps,
+        params=[1e300, radius],
+        name="drifter_with_bounded_S",
+    )

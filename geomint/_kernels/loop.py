@@ -5,7 +5,10 @@ next step goes is its controller's (``control.Constant`` for fixed steps on a
 grid, ``control.Control`` for adaptive steps or fixed steps landing on stops),
 chosen by the controller's type when ``run`` is compiled.  Each accepted step
 is checked (finite state, H and S finite where evaluated, no user function
-raised); a failed step stops the run with the last good state saved.
+raised); a failed step stops the run with the last good state saved (a run
+saving every k-th state evaluates H and S there only: where the state before
+the failing one has a non-finite H or S too, the last saved state is the last
+good one, and the failure is reported at the step after it).
 """
 
 from collections import namedtuple
@@ -171,7 +174,15 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
             counters[CULPRIT] = culprit
             if out.t[counters[ROWS] - 1] != t_now:  # the last good state was not saved yet
                 at = point(buf, x)
-                _save(out, t_now, x, model.H(at, p), model.S(at, p) if lazy else S_x)
+                H_last, S_last = model.H(at, p), (model.S(at, p) if lazy else S_x)
+                if np.isfinite(H_last) and np.isfinite(S_last):
+                    _save(out, t_now, x, H_last, S_last)
+                else:  # lazy: H and S were last checked at the last saved row, and they went non-finite since
+                    # (an explicit step never calls them); that row is the last good state: the run is cut back
+                    # to it and the failure reported at the step after it, never a saved NaN
+                    back = period - countdown  # accepted steps since that row
+                    steps -= back
+                    counters[FAILED_STEP] -= back
             break
         if adaptive and H_target != anchor:  # the step kept (nearly) its own energy: back onto the anchor's
             x_new, H_new, S_new, ev = pulled_back(
