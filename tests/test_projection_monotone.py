@@ -108,3 +108,44 @@ def test_monotone_million_steps_never_raise_S(scheme):
     print(scheme, stats, "energy error", sol.energy_error)
     assert sol.success and sol.n_steps == 1_000_000
     assert sol.S_rises == 0  # beyond 16 ulp, as Solution counts them
+
+
+#: no full step of the monotone composition raises S by more than round-off: the S-change of moving the state by
+#: an ulp, one ulp of the terms of S (``gt.term_scale``; on the bodies below they are 2-3 times S itself)
+MONOTONE_ULPS = 1.25
+
+
+def _worst_rise(system, sol, relative=False):
+    """The largest rise of S between saved states in ulps of the terms of S at either end (``relative``: of the
+    larger |S| itself, inf from S = 0), and the step where it happened."""
+    worst, at = 0.0, 0
+    for k in range(len(sol.t) - 1):
+        rise = sol.S[k + 1] - sol.S[k]
+        if not rise > 0.0:
+            continue
+        if relative:
+            scale = max(abs(sol.S[k]), abs(sol.S[k + 1]))
+        else:
+            scale = max(
+                gt.term_scale(sol.S[k], sol.S[k + 1], system.grad_S(x), x, gt.origin_terms(system, "S", x))
+                for x in sol.x[k : k + 2]
+            )
+        ulps = rise / (EPS * scale) if scale > 0.0 else np.inf
+        if ulps > worst:
+            worst, at = ulps, k + 1
+    return worst, at
+
+
+def test_the_monotone_safeguard_keeps_S_from_rising_in_the_tail_of_the_degenerate_example():
+    """Example 2 at eps = 3 from its pole (0, 0, 1): z decays to ~1e-55 (S ~ 1e-110) before it is flushed to 0.
+    There the safeguard's Gonzalez fallback accepted roots at which S had risen by up to 4.5e15 ulps of itself
+    (S 6e-115 -> 2e-112 at step 756, 1.8e-111 -> 2.3e-111 at step 561): the Newton iteration judged the corrected
+    iterate against the terms of S at the uncorrected one, whose z was 1e9 times larger.  (The terms of S are 2 S
+    here; relative to S because grad S . x would mix in x ~ 1.)"""
+    example = geomint.systems.degenerate_example(2, eps=3.0)
+    method = geomint.Yoshida4(geomint.Gonzalez(), monotone=True)
+    sol = geomint.solve(example, [0.0, 0.0, 1.0], (0.0, 60.0), 0.05, method=method)
+    assert sol.success, sol.message
+    assert np.any((sol.S > 0) & (sol.S < 1e-100))  # the run reached the tail
+    worst, at = _worst_rise(example, sol, relative=True)
+    assert worst <= 2 * MONOTONE_ULPS, f"S rose by {worst:.3g} ulps of S at step {at} (S = {sol.S[at - 1]:.3g})"

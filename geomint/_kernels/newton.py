@@ -31,7 +31,7 @@ from .layout import (
 )
 from .roundoff import kept, origin_terms, term_scale
 from .runge_kutta import rk4_increment
-from .vec3 import abs_dot, add, advance, axpy, is_finite, load, norm_inf, same, scale, solve, sub
+from .vec3 import abs_dot, add, advance, as_vector, axpy, is_finite, load, norm_inf, same, scale, solve, sub
 
 #: a root found to round-off must keep H and S to this many ulps of their terms; a far-away
 #: spurious root (a step far beyond the time scale) does not
@@ -111,6 +111,35 @@ def _residual_matrix(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h,
 
 
 @inner
+def _kept_at(model, buf, y, dy, H_x, S_x, H_y, S_y, terms_h, terms_s, s_ulps, s_direction):
+    """Whether the corrected iterate ``y = x + dy`` keeps H and S as an accepted root must, and the evaluations
+    spent (0 or 1).
+
+    ``terms_h``, ``terms_s`` are the terms of H and S measured at the *uncorrected* iterate, from its discrete
+    gradients; they are also measured at ``y`` (its gradients, the same two parts as in ``newton``) and the
+    smaller of the two is the round-off allowed.  Where one component of the state is far below the others the
+    two differ by orders of magnitude: on the degenerate example's tail (z ~ 1e-55, x ~ 1) an iterate with
+    z ~ 1e-47 made the terms of S 1e9 times S itself, and a corrected root at which S had risen by 25 % was
+    accepted.  The values alone decide first (the terms are at least the values), so the gradients at ``y``
+    are evaluated only where a change exceeds the ulps of the values themselves.
+    """
+    if not (np.isfinite(H_y) and np.isfinite(S_y)):
+        return False, 0
+    if kept(H_x, H_y, max(abs(H_x), abs(H_y)), ACCEPT_ULPS, 0.0) and kept(
+        S_x, S_y, max(abs(S_x), abs(S_y)), s_ulps, s_direction
+    ):
+        return True, 0
+    if not (kept(H_x, H_y, terms_h, ACCEPT_ULPS, 0.0) and kept(S_x, S_y, terms_s, s_ulps, s_direction)):
+        return False, 0
+    load(buf, y)
+    grad_h = as_vector(model.grad_H(buf, model.params))
+    grad_s = as_vector(model.grad_S(buf, model.params))
+    at_h = term_scale(H_x, H_y, grad_h, y, origin_terms(model.origin, 0, y)) + abs_dot(grad_h, dy)
+    at_s = term_scale(S_x, S_y, grad_s, y, origin_terms(model.origin, 4, y)) + abs_dot(grad_s, dy)
+    return kept(H_x, H_y, at_h, ACCEPT_ULPS, 0.0) and kept(S_x, S_y, at_s, s_ulps, s_direction), 1
+
+
+@inner
 def newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, dx, m):
     """Solve ``x' = x + h F(x, x')`` from the increment ``dx`` with the Newton matrix ``m``.
 
@@ -138,7 +167,8 @@ def newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S
       extrapolated start's error, below the threshold but of one sign, would
       add up) and the corrected iterate is accepted if exact (2 function
       values instead of a further discrete field; none where it rounds to
-      the same state, the correction then living in the compensation).  A converged root far from
+      the same state, the correction then living in the compensation),
+      judged against the terms of H and S at it as well (``_kept_at``).  A converged root far from
       keeping H and S (``GUARD`` ulps, beyond what the remaining correction
       moves them: a component of dx far smaller than |dx| is resolved only
       as the iteration goes on) is a spurious root, reached from a step far
@@ -201,14 +231,19 @@ def newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S
         if iteration == 2:
             first_theta = theta
         if converged or (theta < 0.5 and theta / (1.0 - theta) * error <= resolution):
-            x_next, comp_next = advance(x, comp, sub(dx, correction))
+            dx_next = sub(dx, correction)
+            x_next, comp_next = advance(x, comp, dx_next)
             if same(x_next, x_new):  # a correction below the state's ulps (a state at rest): H, S just evaluated
                 H_next, S_next = H_new, S_new
+                exact_next = exact
             else:
                 load(buf, x_next)
                 H_next, S_next = model.H(buf, model.params), model.S(buf, model.params)
-                evaluations += 1
-            if kept(H_x, H_next, terms_h, ACCEPT_ULPS, 0.0) and kept(S_x, S_next, terms_s, s_ulps, s_direction):
+                exact_next, more = _kept_at(
+                    model, buf, x_next, dx_next, H_x, S_x, H_next, S_next, terms_h, terms_s, s_ulps, s_direction
+                )
+                evaluations += 1 + more
+            if exact_next:
                 return OK, x_next, comp_next, H_next, S_next, iteration, evaluations, max(theta, first_theta), UNKNOWN
         stalled = converged or error >= 0.5 * best
         floor = 4.0 * resolution + 2.0 * abs(h) * noise
