@@ -36,9 +36,11 @@ trajectory (the midpoint defect the switching rule skips), so over many steps
 it would drift linearly.  ``P_ANCHOR`` (set for energy-exact programs without a
 projection) pulls the full step back onto ``H = H(x0)``: when H has strayed by
 more than 2 ulp of its terms, a projection along grad H (a move of a few ulps)
-restores it, keeping S at most where the full step started (moving along
-grad S too where grad H alone would raise it beyond that), and is skipped
-where that finds no point.
+restores it, keeping S at most where the full step started, to an ulp of its
+terms (moving along grad S too where grad H alone would raise it beyond
+that); where no such point is near (at rest where grad S || grad H, H and S
+locked) it restores H as far as that allows (``projection.lower_S``), and is
+skipped where that finds no point.
 Compensated summation (``vec3.advance``) runs through every sub-step; a
 projection restarts it (the projected state is the state).
 
@@ -82,6 +84,7 @@ from .layout import (
     R_LEAF,
     R_MAX_ITER,
     ROW,
+    SQRT_EPS,
     SYMMETRIC,
     UNKNOWN,
     WORK,
@@ -93,8 +96,8 @@ from .layout import (
     StepResult,
     Undamped,
 )
-from .projection import project_both, project_energy, project_step, rise_tolerance
-from .roundoff import origin_terms, term_scale
+from .projection import S_CAP_ULPS, lower_S, project_both, project_energy, project_step
+from .roundoff import kept, origin_terms, term_scale
 from .runge_kutta import rk4_step
 from .vec3 import ZERO, add, advance, as_vector, axpy, dot, is_finite, load, norm_inf, sub
 
@@ -293,19 +296,34 @@ def _symmetric_projection(uses, coeffs, iopts, model, eps, hamiltonian, buf, x, 
 def pull_back(model, buf, y, H_y, S_y, anchor, S_limit, max_iter):
     """``y`` moved along grad H back onto ``H = anchor`` when it strayed beyond ``ANCHOR_ULPS`` of the
     terms of H (see the module docstring), keeping S at most ``S_limit`` (S at the start of the full
-    step, or the step's own S where it rose) to round-off.  Returns ``(y, H(y), S(y), evaluations)``."""
+    step, or the step's own S where it rose) to ``projection.S_CAP_ULPS`` of its terms.  Returns ``(y, H(y), S(y),
+    evaluations)``.
+
+    Where the move along grad H raises S beyond that, the point of ``H = anchor, S = S_limit`` is sought
+    (``project_both``) within ``sqrt(eps) |y|``.  Where there is none (near an equilibrium of the gradient part,
+    grad S || grad H, where H and S are locked: a state at rest at the stable pole with H a few ulps below H(x0))
+    the moved state gives back along grad S what raised S beyond the allowance (``projection.lower_S``): H then
+    rejoins H(x0) over a few steps, S rising by at most the allowance in each, not by 4-6 ulps in one (the
+    allowance of a projection, ``rise_tolerance``, is 4 ulps of S on the rigid body).
+    """
     grad_h = as_vector(model.grad_H(load(buf, y), model.params))
     if abs(H_y - anchor) <= ANCHOR_ULPS * EPS * term_scale(anchor, H_y, grad_h, y, origin_terms(model.origin, 0, y)):
         return y, H_y, S_y, 1
     z, H_z, it = project_energy(model, buf, y, anchor, max_iter)
     S_z = model.S(load(buf, z), model.params)
     grad_s = as_vector(model.grad_S(buf, model.params))
-    # along grad S too: H = anchor, S = S_limit
-    if S_z - S_limit > rise_tolerance(S_limit, S_z, grad_s, z, origin_terms(model.origin, 4, z)):
-        z, H_z, S_z, converged, more = project_both(model, buf, y, anchor, S_limit, max_iter)
+    terms_s = term_scale(S_limit, S_z, grad_s, z, origin_terms(model.origin, 4, z))
+    if not kept(S_limit, S_z, terms_s, S_CAP_ULPS, 1.0):
+        # along grad S too: H = anchor, S = S_limit
+        w, H_w, S_w, converged, more = project_both(model, buf, y, anchor, S_limit, max_iter, SQRT_EPS * norm_inf(y))
         it += more
-        if not converged:
-            return y, H_y, S_y, it + 4
+        if converged and kept(S_limit, S_w, terms_s, S_CAP_ULPS, 1.0):
+            z, H_z, S_z = w, H_w, S_w
+        else:  # none nearby: as close to the anchor as S allows
+            z, H_z, S_z, more = lower_S(model, buf, z, H_z, S_z, S_limit, anchor, abs(H_y - anchor))
+            it += more
+            if not kept(S_limit, S_z, terms_s, S_CAP_ULPS, 1.0):
+                return y, H_y, S_y, it + 4
     if abs(H_z - anchor) < abs(H_y - anchor):
         return z, H_z, S_z, it + 4
     return y, H_y, S_y, it + 4

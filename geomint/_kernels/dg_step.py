@@ -4,7 +4,9 @@
 to round-off (``newton``); ``H`` and ``S`` in its ``layout.StepResult`` are the
 invariants at the new state, which the step evaluates to check them.
 ``damped_eps`` scales the dissipation by ``damping_factor`` for
-``DampedGonzalez``.
+``DampedGonzalez``.  A forward dissipative step whose root raised S beyond
+round-off (at rest where grad S || grad H, the anchor's pull on H raises S with
+it) gives that back along grad S (``projection.lower_S``).
 """
 
 import numpy as np
@@ -13,9 +15,11 @@ from numba.extending import overload
 
 from .field import field
 from .jit import hot, inner
-from .layout import NEWTON_FAILED, OK, UNKNOWN, W_H, W_HISTORY, W_JACOBIAN_VALID, Damped, StepResult, Undamped
-from .newton import THETA_REFRESH, attempts, jacobian, newton, newton_matrix, predictor, remember
-from .vec3 import ZERO, sub
+from .layout import EPS, NEWTON_FAILED, OK, UNKNOWN, W_H, W_HISTORY, W_JACOBIAN_VALID, Damped, StepResult, Undamped
+from .newton import ACCEPT_ULPS, THETA_REFRESH, attempts, jacobian, newton, newton_matrix, predictor, remember
+from .projection import S_CAP_ULPS, lower_S
+from .roundoff import origin_terms, term_scale
+from .vec3 import ZERO, as_vector, load, same, sub
 
 
 def damped_eps(damped, model, eps, buf, x, h):
@@ -130,6 +134,17 @@ def discrete_gradient_step(
     if status != OK:
         work[W_HISTORY] = 0.0
         return StepResult(x_new, comp_new, H_new, S_new, status, iterations, evaluations, rate, culprit)
+    if h > 0.0 and eps > 0.0 and S_new - S_x > S_CAP_ULPS * EPS * max(abs(S_x), abs(S_new)):
+        # S rose beyond the ulps of its value (the root is accepted within 2 ulps of its terms): at a state at rest
+        # where grad S || grad H, the anchor's pull of H(x_n) back onto H(x0) raises S with H; give back the part
+        # beyond round-off (``projection.lower_S``), H staying within the root's own allowance of the anchor
+        load(buf, x_new)
+        grad_h = as_vector(model.grad_H(buf, model.params))
+        allowed = ACCEPT_ULPS * EPS * term_scale(H_x, H_new, grad_h, x_new, origin_terms(model.origin, 0, x_new))
+        x_low, H_new, S_new, ev = lower_S(model, buf, x_new, H_new, S_new, S_x, H_x, allowed)
+        evaluations += ev + 1
+        if not same(x_low, x_new):  # the moved state is the state: its carry restarts, as after a projection
+            x_new, comp_new = x_low, ZERO
     remember(work, sub(x_new, x), h)
     if rate > THETA_REFRESH and not fresh:
         work[W_JACOBIAN_VALID] = 0.0  # the Jacobian has gone stale: a fresh one next step

@@ -13,6 +13,11 @@ i.e. the closest point (to first order) of ``{H = H0, S <= S_n}``, a set that
 holds ``x_n``.  Its Jacobian is the Gram matrix of ``grad H`` and ``grad S``,
 singular only where they are parallel (``sigma = 0``: equilibria of the
 gradient part, where the feasible set shrinks to the point ``x_n``).
+
+``lower_S`` moves a state along ``grad S`` down to its limit plus round-off:
+near such an equilibrium H and S are locked, and a step that restores a few
+ulps of H raises S with it (the discrete-gradient step's anchor, the pull back
+of a composed step); it gives back the part beyond an ulp of the terms of S.
 """
 
 import numpy as np
@@ -63,9 +68,12 @@ def project_energy(model, buf, x, target, max_iter):
 
 
 @inner
-def project_both(model, buf, x, H_target, S_target, max_iter):
+def project_both(model, buf, x, H_target, S_target, max_iter, reach):
     """``(y, H(y), S(y), converged, iterations)``: ``y = x + lambda grad H(x) + mu grad S(x)``
     with ``H(y) = H_target`` and ``S(y) = S_target``, by Newton's method on ``(lambda, mu)``.
+
+    Not converged as soon as an update moves y farther than ``reach`` (inf: no limit): near an equilibrium of
+    the gradient part the Gram matrix is nearly singular and the nearest such point, if any, is far away.
     """
     H, grad_H, S, grad_S, params = model.H, model.grad_H, model.S, model.grad_S, model.params
     load(buf, x)
@@ -88,16 +96,50 @@ def project_both(model, buf, x, H_target, S_target, max_iter):
         r_h, r_s = H_y - H_target, S_y - S_target
         d_lam = (d * r_h - b * r_s) / det
         d_mu = (a * r_s - c * r_h) / det
+        update = abs(d_lam) * norm_inf(dh) + abs(d_mu) * norm_inf(ds)
+        if update > reach:
+            return y, H_y, S_y, False, iteration
         lam -= d_lam
         mu -= d_mu
         y = axpy(mu, ds, axpy(lam, dh, x))
         load(buf, y)
         H_y, S_y = H(buf, params), S(buf, params)
-        update = abs(d_lam) * norm_inf(dh) + abs(d_mu) * norm_inf(ds)
         if update <= 4.0 * EPS * size or (update >= 0.5 * previous and update <= SQRT_EPS * size):
             return y, H_y, S_y, True, iteration  # converged, or stopped shrinking at the round-off floor
         previous = update
     return y, H_y, S_y, False, max_iter
+
+
+#: S above its limit by more than this many ulps of its terms is lowered back (``lower_S``): about the rounding of
+#: S at a state (``projection.rise_tolerance`` allows 2 ulps of ``|grad S|_inf |x|_inf``: 4 ulps of S on the rigid body)
+S_CAP_ULPS = 1.0
+
+
+@inner
+def lower_S(model, buf, y, H_y, S_y, S_limit, H_target, H_allowed):
+    """``(y', H(y'), S(y'), evaluations)``: where S exceeds ``S_limit`` by more than ``S_CAP_ULPS`` ulps of its terms
+    (the allowance), ``y`` moved along ``grad S(y)`` down to half the allowance above ``S_limit`` (first order: a
+    move of a few ulps), provided S fell and ``|H(y') - H_target|`` stays within ``H_allowed``; else ``y``.
+
+    Where grad S || grad H (an equilibrium of the gradient part: a state at rest at the stable pole), H and S are
+    locked together, and a step that restores a few ulps of H towards H(x0) raises S by as many: this gives back
+    the part of that move which raised S beyond round-off, so H rejoins H(x0) over a few steps (S rising by at most
+    the allowance each) instead of in one step that raises S by 4-6 ulps.  Elsewhere it costs H nothing to first
+    order (moving along grad S changes H by ``grad H . grad S / |grad S|^2`` per unit of S).
+    """
+    p = model.params
+    load(buf, y)
+    grad_s = as_vector(model.grad_S(buf, p))
+    allowance = S_CAP_ULPS * EPS * term_scale(S_limit, S_y, grad_s, y, origin_terms(model.origin, 4, y))
+    norm2 = dot(grad_s, grad_s)
+    if S_y - S_limit <= allowance or not (norm2 > 0.0 and np.isfinite(norm2)):
+        return y, H_y, S_y, 1
+    z = axpy((S_limit + 0.5 * allowance - S_y) / norm2, grad_s, y)
+    load(buf, z)
+    H_z, S_z = model.H(buf, p), model.S(buf, p)
+    if S_z < S_y and abs(H_z - H_target) <= H_allowed:
+        return z, H_z, S_z, 2
+    return y, H_y, S_y, 2
 
 
 @inner
@@ -134,7 +176,7 @@ def project_step(model, buf, y, H_y, S_y, anchor, S_x, max_iter):
     S_y = model.S(load(buf, y), model.params)
     grad_s = as_vector(model.grad_S(buf, model.params))
     if S_y - S_x > rise_tolerance(S_x, S_y, grad_s, y, origin_terms(model.origin, 4, y)):
-        y, H_y, S_y, converged, it = project_both(model, buf, y, anchor, S_x, max_iter)
+        y, H_y, S_y, converged, it = project_both(model, buf, y, anchor, S_x, max_iter, np.inf)
         evaluations += it + 1
         if not converged and on_level(model, buf, y_step, H_step, S_step, anchor, S_x):
             y, H_y, S_y, converged = y_step, H_step, S_step, True
