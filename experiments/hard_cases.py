@@ -175,6 +175,21 @@ def compensation_figures(steps):
     return rows
 
 
+def casimir_figures(steps):
+    """max |H - H0|/H0 and max |S - S0|/S0 over ``steps`` Gonzalez steps (h = 0.05) at eps = 0, where S is a
+    Casimir kept as H is (docs/hard_cases.md, "The Casimir at eps = 0")."""
+    systems = {
+        "free rigid body (eps = 0)": geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.0),
+        "quartic body, eps = 0": geomint.systems.quartic_rigid_body(0.5, 1.0, 1.5, k=0.5, eps=0.0),
+    }
+    rows = []
+    for label, system in systems.items():
+        sol = geomint.solve(system, X0, (0, steps * 0.05), 0.05, method=geomint.Gonzalez(), save_every=1000)
+        drift = float(np.max(np.abs(sol.S - sol.S[0])) / abs(sol.S[0]))
+        rows.append(f"| {label} | {sol.energy_error:.2e} | {drift:.2e} |")
+    return rows
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="10^6 steps instead of 10^7 in the long runs")
@@ -191,10 +206,13 @@ def main():
         print(lines[-1], flush=True)
     comp_lines = compensation_figures(steps)
     print(*comp_lines, sep="\n")
+    casimir_lines = casimir_figures(steps)
+    print(*casimir_lines, sep="\n")
     text = DOC.read_text() if DOC.exists() else ""
     table = "\n".join(lines)
     comp = "| system | without | with compensated summation |\n|---|---|---|\n" + "\n".join(comp_lines)
-    for marker, body in (("TABLE", table), ("COMPENSATION", comp)):
+    casimir = "| system | max abs(H - H0)/H0 | max abs(S - S0)/S0 |\n|---|---|---|\n" + "\n".join(casimir_lines)
+    for marker, body in (("TABLE", table), ("COMPENSATION", comp), ("CASIMIR", casimir)):
         begin, end = f"<!-- {marker} BEGIN -->", f"<!-- {marker} END -->"
         if begin in text:
             text = text[: text.index(begin) + len(begin)] + "\n" + body + "\n" + text[text.index(end) :]

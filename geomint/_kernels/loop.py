@@ -8,7 +8,8 @@ is checked (finite state, H and S finite where evaluated, no user function
 raised); a failed step stops the run with the last good state saved (a run
 saving every k-th state evaluates H and S there only: where the state before
 the failing one has a non-finite H or S too, the last saved state is the last
-good one, and the failure is reported at the step after it).
+good one, and the failure is reported at the step after it).  At eps = 0 a
+step that keeps S is given S(x0), as every step is given H(x0).
 """
 
 from collections import namedtuple
@@ -59,6 +60,7 @@ from .state import (
     unchanged,
     unpack,
 )
+from .step import keeps_S
 
 #: the output arrays: saved times, states, H, S; ``counters`` (``layout`` codes); the last residual
 Output = namedtuple("Output", "t x H S counters residual")
@@ -114,6 +116,9 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
         _save(out, clock[C_T], x, H0, state[S_AT])
     anchor = state[ANCHOR]
     S_x = state[S_AT]
+    # eps = 0: S is conserved as H is; a step that keeps the S it is given (``step.keeps_S``) is given S(x0), the
+    # first row, as it is given H(x0), so that the rounding of S does not random-walk (docs/hard_cases.md)
+    S_kept = out.S[0] if eps == 0.0 and keeps_S(method, model) else np.nan
     H_x = np.nan  # H at x, evaluated when the anchor's reach is short of 1
     adaptive, lazy, period, exponent, rise = traits(control)  # rise >= 0: S rises counted (``control.Counting``)
     countdown = period - int(clock[C_COUNT]) % period if period > 0 else 0  # saving when it is 1
@@ -131,7 +136,10 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
             if np.isnan(H_x):
                 H_x = model.H(point(buf, x), p)
             H_target = H_x + clock[C_REACH] * (anchor - H_x)
-        r, err, rises, fired = attempt(control, method, model, eps, hamiltonian, buf, x, comp, H_target, S_x, h, work)
+        S_given = S_x if np.isnan(S_kept) or H_target != anchor else S_kept
+        r, err, rises, fired = attempt(
+            control, method, model, eps, hamiltonian, buf, x, comp, H_target, S_given, h, work
+        )
         iterations += r.iterations
         evaluations += r.evaluations
         residual = r.residual

@@ -301,10 +301,10 @@ def seed_predictor(work, dx, h):
 def attempts(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, work, first):
     """The starts a step tries when it has no extrapolated one, or when that failed (``first = 1``), in turn:
     a fresh Jacobian and the linearly implicit start; the explicit RK4 increment; a fresh Jacobian with the
-    step anchored to H(x_n).  Returns ``newton``'s tuple and the attempt that ended it."""
+    step anchored to H(x_n) (and S(x_n)).  Returns ``newton``'s tuple and the attempt that ended it."""
     iterations = 0
     evaluations = 0
-    target = H_x
+    target, S_target = H_x, S_x
     for attempt in range(first, 4):
         if attempt == 1 and first == 0:
             continue  # attempt 0 already started from a fresh Jacobian
@@ -317,10 +317,12 @@ def attempts(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x,
             store_jacobian(work, c0, c1, c2)
             evaluations += 4
             dx = _start(work, h, f0)
-            if attempt == 3:
-                target = model.H(load(buf, x), model.params)
+            if attempt == 3:  # S too: at eps = 0 the step was given S(x0) (``loop.run``), else this is S_x itself
+                load(buf, x)
+                target, S_target = model.H(buf, model.params), model.S(buf, model.params)
+        m = newton_matrix(work, h)
         status, x_new, comp_new, H_new, S_new, it, ev, rate, culprit = newton(
-            kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, target, S_x, h, dx, newton_matrix(work, h)
+            kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, target, S_target, h, dx, m
         )
         iterations += it
         evaluations += ev

@@ -13,7 +13,15 @@ from numba.extending import overload
 from .composition import composed_step
 from .composition_n import composed_step_n
 from .dg_step import discrete_gradient_step
-from .layout import ComposedStep, DiscreteGradientStep, EmbeddedPairStep, ModelN, RungeKutta4
+from .layout import (
+    NO_PROJECTION,
+    P_PROJECTION,
+    ComposedStep,
+    DiscreteGradientStep,
+    EmbeddedPairStep,
+    ModelN,
+    RungeKutta4,
+)
 from .runge_kutta import pair_step, rk4_step
 from .runge_kutta_n import pair_step_n
 from .step_n import discrete_gradient_step_n, rk4_step_n
@@ -112,3 +120,24 @@ def _step_typed(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h,
     return lambda method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work: impl(
         method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work
     )
+
+
+def keeps_S(method, model):
+    """Whether a step of ``method`` keeps the S it is given as S at its start, as it keeps its energy anchor: a
+    discrete-gradient step, or a program without a projection (whose first discrete-gradient stage takes it), in
+    R^3; not a projection (S there is a limit) nor an explicit step (which does not read it).  At eps = 0 the loop
+    gives such a step S(x0) (``loop.run``)."""
+    if isinstance(model, ModelN):
+        return False
+    if isinstance(method, DiscreteGradientStep):
+        return True
+    return isinstance(method, ComposedStep) and method.iopts[P_PROJECTION] == NO_PROJECTION
+
+
+@overload(keeps_S, inline="always")
+def _keeps_S_typed(method, model):
+    if model.instance_class is ModelN or method.instance_class not in (DiscreteGradientStep, ComposedStep):
+        return lambda method, model: False
+    if method.instance_class is DiscreteGradientStep:
+        return lambda method, model: True
+    return lambda method, model: method.iopts[P_PROJECTION] == NO_PROJECTION
