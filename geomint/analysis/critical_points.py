@@ -372,8 +372,10 @@ class _Lagrange:
             if size == 0.0:
                 return None  # a critical point of H
             d = -(h - self.H0) / size * gh
-            t = 1.0
-            while t > 1e-6:
+            # a trust region of |x| (at least 1): near a critical point of H the Newton step is huge
+            length, reach = float(np.linalg.norm(d)), max(1.0, float(np.linalg.norm(x)))
+            t = min(1.0, reach / length)
+            while t * length > 1e-14 * reach:
                 trial = x + t * d
                 try:
                     after = self.values(trial)
