@@ -45,12 +45,12 @@ from .scene import (
     CheckpointError,
     SceneError,
     bundled_scenes,
+    catalogue_n,
     load_scene,
     run_scene,
     runs_together,
     solve_together,
 )
-from .scene import catalogue_n
 from .scene.toml import to_toml, toml_value
 from .systems import CATALOGUE, RN_CATALOGUE, relaxing_rigid_body
 

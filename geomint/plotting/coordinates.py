@@ -31,7 +31,7 @@ def _columns(variables, names):
     return names, [list(variables).index(name) for name in names]
 
 
-def series(
+def coordinate_series(
     solutions: Solution | Sequence[Solution],
     variables: Sequence[str],
     names: Sequence[str],
@@ -58,8 +58,9 @@ def series(
             if not single:
                 line["linestyle"] = ("-", "--", ":", "-.")[j % 4]
             label = name if single else (key if j == 0 else None)
-            ax.plot(sol.t, sol.x[:, column], color=line["color"], linestyle=line["linestyle"], linewidth=1.1,
-                    label=label)  # fmt: skip
+            ax.plot(
+                sol.t, sol.x[:, column], color=line["color"], linestyle=line["linestyle"], linewidth=1.1, label=label
+            )
     if not single and len(names) > 1:
         for j, name in enumerate(names[:4]):
             ax.plot([], [], color="0.3", linestyle=("-", "--", ":", "-.")[j], label=name)
@@ -72,7 +73,7 @@ def series(
     return ax
 
 
-def phase(
+def phase_projection(
     solutions: Solution | Sequence[Solution],
     variables: Sequence[str],
     names: Sequence[str],
@@ -133,9 +134,14 @@ def series_grid(
     if len(solutions) == 1 or len(names) == 1:
         fig = plt.figure(figsize=(8.5, 4.6))
         ax = fig.add_subplot()
-        series(solutions, variables, names, ax, labels=labels, legend=False)
-        ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=7, frameon=False,
-                  ncol=1 if len(ax.get_legend_handles_labels()[1]) <= 20 else 2)  # fmt: skip
+        coordinate_series(solutions, variables, names, ax, labels=labels, legend=False)
+        ax.legend(
+            loc="center left",
+            bbox_to_anchor=(1.01, 0.5),
+            fontsize=7,
+            frameon=False,
+            ncol=1 if len(ax.get_legend_handles_labels()[1]) <= 20 else 2,
+        )
         if title:
             fig.suptitle(title, fontsize=10)
         return fig
@@ -145,14 +151,21 @@ def series_grid(
     fig, axes = plt.subplots(rows, columns, figsize=(6.0 * columns, 2.1 * rows + 0.9), sharex=True, squeeze=False)
     for k, name in enumerate(shown):
         ax = axes[k // columns, k % columns]
-        series(solutions, variables, [name], ax, labels=labels, legend=False)
+        coordinate_series(solutions, variables, [name], ax, labels=labels, legend=False)
         if k // columns < rows - 1:
             ax.set_xlabel("")
     for k in range(len(shown), rows * columns):
         axes[k // columns, k % columns].set_visible(False)
     handles, keys = axes[0, 0].get_legend_handles_labels()
-    fig.legend(handles, keys, loc="center left", bbox_to_anchor=(1.0, 0.5), fontsize=7, frameon=False,
-               ncol=1 if len(keys) <= 20 else 2)  # fmt: skip
+    fig.legend(
+        handles,
+        keys,
+        loc="center left",
+        bbox_to_anchor=(1.0, 0.5),
+        fontsize=7,
+        frameon=False,
+        ncol=1 if len(keys) <= 20 else 2,
+    )
     if len(names) > most:
         fig.text(0.01, 0.005, f"first {most} of {len(names)} coordinates drawn", fontsize=7, color="0.3")
     top = 1.0 - 0.75 / fig.get_figheight() if title else 1.0

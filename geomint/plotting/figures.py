@@ -17,7 +17,7 @@ from ..analysis import level_set as _level_set
 from ..scene import relaxation as _relaxation
 from ..scene import states as _states
 from ._common import pyplot
-from .coordinates import phase, series_grid
+from .coordinates import phase_projection, series_grid
 from .relaxation import energy_ulps, entropy, entropy_gap
 from .series import casimir, drift, plot_energy_error
 from .surface import level_surface
@@ -152,9 +152,7 @@ def _labels_n(result):
             "(" + ", ".join(variables) + ") = (" + ", ".join(f"{v:.3g}" for v in sol.x[0]) + ")"
             for sol in result.solutions
         ]
-    return [
-        f"#{i}: {energy}0 = {sol.H[0]:.4g}, S0 = {sol.S[0]:.4g}" for i, sol in enumerate(result.solutions)
-    ]
+    return [f"#{i}: {energy}0 = {sol.H[0]:.4g}, S0 = {sol.S[0]:.4g}" for i, sol in enumerate(result.solutions)]
 
 
 def _energy_name(result):
@@ -168,15 +166,15 @@ def _title_n(result, what):
     if system.direction > 0:
         effects = [
             name
-            for name, on in (("L∇E", scene.hamiltonian), ("M∇S" + ("" if scene.eps == 1.0 else f" (×{scene.eps:g})"),
-                             scene.eps > 0))  # fmt: skip
+            for name, on in (
+                ("L∇E", scene.hamiltonian),
+                ("M∇S" + ("" if scene.eps == 1.0 else f" (×{scene.eps:g})"), scene.eps > 0),
+            )
             if on
         ]
     else:
         effects = [
-            name
-            for name, on in (("P∇H", scene.hamiltonian), (f"dissipation ε = {scene.eps:g}", scene.eps > 0))
-            if on
+            name for name, on in (("P∇H", scene.hamiltonian), (f"dissipation ε = {scene.eps:g}", scene.eps > 0)) if on
         ]
     return (
         f"{scene.title or scene.name}: {what}\n{system.name} ({form}, n = {system.dim}), {' + '.join(effects)}, "
@@ -197,7 +195,9 @@ def _phase_figure(plt, result):
     three = len(names) == 3
     fig = plt.figure(figsize=(7.5, 6.6) if three else (7.2, 5.6))
     ax = fig.add_subplot(projection="3d" if three else None)
-    phase(result.solutions, variables, names, ax, labels=_scene_labels(result), legend=False, view=result.scene.view)
+    phase_projection(
+        result.solutions, variables, names, ax, labels=_scene_labels(result), legend=False, view=result.scene.view
+    )
     ax.legend(loc="center left", bbox_to_anchor=(1.02 if not three else 1.08, 0.5), fontsize=7, frameon=False)
     fig.suptitle(_title_n(result, "projected trajectories") if result.scene.in_rn else _title(result), fontsize=10)
     return fig
@@ -217,11 +217,13 @@ def _scales(result):
 def _energy_figure(plt, result):
     fig = plt.figure(figsize=(8.5, 4.4))
     ax = fig.add_subplot()
-    energy_ulps(result.solutions, _scales(result), ax, labels=_scene_labels(result), legend=False,
-                energy=_energy_name(result))  # fmt: skip
+    energy_ulps(
+        result.solutions, _scales(result), ax, labels=_scene_labels(result), legend=False, energy=_energy_name(result)
+    )
     ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=7, frameon=False)
-    fig.suptitle(_title_n(result, "energy error in ulps") if result.scene.in_rn else _title(result), fontsize=10,
-                 y=1.02)  # fmt: skip
+    fig.suptitle(
+        _title_n(result, "energy error in ulps") if result.scene.in_rn else _title(result), fontsize=10, y=1.02
+    )
     return fig
 
 
@@ -231,7 +233,10 @@ def _reference_rate(result):
     if not result.scene.is_euler or not result.scene.eps > 0:
         return None
     H0 = float(result.solutions[0].H[0])
-    return 8.0 * result.scene.eps * H0, f"8 ε H0 = {8.0 * result.scene.eps * H0:.4g} (linearised, dissipative part alone)"
+    return (
+        8.0 * result.scene.eps * H0,
+        f"8 ε H0 = {8.0 * result.scene.eps * H0:.4g} (linearised, dissipative part alone)",
+    )
 
 
 def _relaxation_figure(plt, result):
@@ -245,12 +250,21 @@ def _relaxation_figure(plt, result):
     )
     energy_ulps(result.solutions, _scales(result), ax_E, labels=labels, legend=False, energy=energy)
     ax_E.set_title(ax_E.get_title(), fontsize=9)
-    entropy(result.solutions, values, ax_S, labels=labels, legend=False,
-            what="S (entropy, never falls)" if direction > 0 else "S (never rises)")  # fmt: skip
-    ax_S.set_title(f"S and its limit: {_shown(limits[0].why)}" if len({lim.why for lim in limits}) == 1 else
-                   "S and its limits S∞", fontsize=9)  # fmt: skip
-    entropy_gap(result.solutions, values, direction, ax_gap, labels=labels, legend=False,
-                reference=_reference_rate(result))  # fmt: skip
+    entropy(
+        result.solutions,
+        values,
+        ax_S,
+        labels=labels,
+        legend=False,
+        what="S (entropy, never falls)" if direction > 0 else "S (never rises)",
+    )
+    ax_S.set_title(
+        f"S and its limit: {_shown(limits[0].why)}" if len({lim.why for lim in limits}) == 1 else "S and its limits S∞",
+        fontsize=9,
+    )
+    entropy_gap(
+        result.solutions, values, direction, ax_gap, labels=labels, legend=False, reference=_reference_rate(result)
+    )
     ax_gap.set_title("the approach to S∞, log scale (dashed: the fitted exponential)", fontsize=9)
     for ax in (ax_E, ax_S):
         ax.set_xlabel("")
@@ -274,34 +288,50 @@ def _vorticity_figure(plt, result):
     rows = [int(np.argmin(np.abs(sol.t - t))) for t in times]
     fields = len(rows)
     fig = plt.figure(figsize=(2.5 * fields + 1.2, 6.6))
-    grid = fig.add_gridspec(2, fields + 1, width_ratios=[1.0] * fields + [0.06], height_ratios=(1.0, 1.05),
-                            hspace=0.45, wspace=0.3)  # fmt: skip
+    grid = fig.add_gridspec(
+        2, fields + 1, width_ratios=[1.0] * fields + [0.06], height_ratios=(1.0, 1.05), hspace=0.45, wspace=0.3
+    )
     vmax = max(float(np.max(np.abs(_field(sol.x[r], N)))) for r in rows)
     image = None
     for k, r in enumerate(rows):
         ax = fig.add_subplot(grid[0, k])
         distance = _relaxation.lowest_shell_distance(sol.x[r])
-        image = vorticity_field(sol.x[r], N, ax, vmax=vmax,
-                                title=f"t = {sol.t[r]:.4g}\ndist. to |k|²=1: {distance:.1e}")  # fmt: skip
+        image = vorticity_field(
+            sol.x[r], N, ax, vmax=vmax, title=f"t = {sol.t[r]:.4g}\ndist. to |k|²=1: {distance:.1e}"
+        )
         if k:
             ax.set_ylabel("")
     colorbar = fig.colorbar(image, cax=fig.add_subplot(grid[0, fields]))
     colorbar.set_label("vorticity ω(θ)")
     ax_gap = fig.add_subplot(grid[1, :fields])
     limits = result.limits()
-    entropy_gap([sol], [limits[0].value], float(result.system.direction), ax_gap,
-                labels=["S - S∞, the enstrophy above the lowest shell"], legend=False,
-                reference=_reference_rate(result))  # fmt: skip
+    entropy_gap(
+        [sol],
+        [limits[0].value],
+        float(result.system.direction),
+        ax_gap,
+        labels=["S - S∞, the enstrophy above the lowest shell"],
+        legend=False,
+        reference=_reference_rate(result),
+    )
     distance = _relaxation.lowest_shell_distance(sol.x)
-    ax_gap.semilogy(sol.t, np.where(distance > 0, distance, np.nan), color="tab:purple", linewidth=1.3,
-                    label=f"distance of the state from the lowest shell's span (final {distance[-1]:.1e})")  # fmt: skip
+    ax_gap.semilogy(
+        sol.t,
+        np.where(distance > 0, distance, np.nan),
+        color="tab:purple",
+        linewidth=1.3,
+        label=f"distance of the state from the lowest shell's span (final {distance[-1]:.1e})",
+    )
     for r in rows:
         ax_gap.axvline(sol.t[r], color="0.6", linewidth=0.7, linestyle="-", zorder=0)
     ax_gap.plot([], [], color="0.6", linewidth=0.7, label="snapshot times")
     ax_gap.legend(loc="upper right", fontsize=7, framealpha=0.9)
     ax_gap.set_ylabel("S - S∞;  distance")
-    ax_gap.set_title(f"enstrophy S relaxing to S∞ = H0 = {limits[0].value:.6g} ({limits[0].source}); the state to "
-                     "the lowest shell |k|² = 1", fontsize=9)  # fmt: skip
+    ax_gap.set_title(
+        f"enstrophy S relaxing to S∞ = H0 = {limits[0].value:.6g} ({limits[0].source}); the state to "
+        "the lowest shell |k|² = 1",
+        fontsize=9,
+    )
     more = f" (trajectory 0 of {len(result.solutions)})" if len(result.solutions) > 1 else ""
     fig.suptitle(_title_n(result, f"vorticity at chosen times{more}"), fontsize=10)
     return fig

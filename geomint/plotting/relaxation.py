@@ -51,8 +51,15 @@ def energy_ulps(
         line = style(i, len(solutions))
         ax.plot(sol.t, ulps, color=line["color"], linewidth=0.5, alpha=0.5)
         running = np.maximum.accumulate(np.abs(np.nan_to_num(ulps)))
-        ax.plot(sol.t, running, color=line["color"], linestyle=line["linestyle"], linewidth=1.4,
-                drawstyle="steps-post", label=key)  # fmt: skip
+        ax.plot(
+            sol.t,
+            running,
+            color=line["color"],
+            linestyle=line["linestyle"],
+            linewidth=1.4,
+            drawstyle="steps-post",
+            label=key,
+        )
         worst = max(worst, float(np.nanmax(np.abs(ulps))))
     ax.axhline(0.0, color="0.5", linewidth=0.6)
     for level in (1.0, -1.0):
@@ -64,8 +71,9 @@ def energy_ulps(
     ax.set_ylim(-top, top)
     ax.set_xlabel("t")
     ax.set_ylabel(f"({energy} - {energy}0) [ulp of {energy}'s terms]")
-    ax.set_title(f"energy {energy}: max |{energy} - {energy}0| = {worst:.3g} ulp (1 ulp = 2^-52 of the terms' size)",
-                 fontsize=10)  # fmt: skip
+    ax.set_title(
+        f"energy {energy}: max |{energy} - {energy}0| = {worst:.3g} ulp (1 ulp = 2^-52 of the terms' size)", fontsize=10
+    )
     ax.grid(True, linewidth=0.4, alpha=0.6)
     if legend:
         ax.legend(loc="upper left", fontsize=7, ncol=1 if len(solutions) <= 8 else 2)
@@ -130,20 +138,31 @@ def entropy_gap(
         ax.semilogy(sol.t, shown, color=line["color"], linestyle=line["linestyle"], linewidth=1.3, label=text)
         if rate is not None:
             t = np.linspace(rate.t_from, rate.t_to, 50)
-            ax.semilogy(t, np.exp(rate.log_C - rate.rate * t), color="black", linewidth=0.9, linestyle="--",
-                        alpha=0.7)  # fmt: skip
+            ax.semilogy(t, np.exp(rate.log_C - rate.rate * t), color="black", linewidth=0.9, linestyle="--", alpha=0.7)
             anchor = anchor or (rate.t_to, float(np.exp(rate.log_C - rate.rate * rate.t_to)), rate.t_from)
     if fit:
         ax.plot([], [], color="black", linewidth=0.9, linestyle="--", alpha=0.7, label="fit C exp(-rate t)")
     if reference is not None and anchor is not None:
         t_to, g_to, t_from = anchor
         t = np.linspace(t_from, t_to, 50)
-        ax.semilogy(t, g_to * np.exp(reference[0] * (t_to - t)), color="tab:red", linewidth=1.0, linestyle=":",
-                    label=reference[1])  # fmt: skip
+        ax.semilogy(
+            t,
+            g_to * np.exp(reference[0] * (t_to - t)),
+            color="tab:red",
+            linewidth=1.0,
+            linestyle=":",
+            label=reference[1],
+        )
     if np.isfinite(lowest):
         ax.axhline(lowest, color="0.5", linewidth=0.8, linestyle=":")
-        ax.plot([], [], color="0.5", linewidth=0.8, linestyle=":",
-                label=f"round-off ({_relaxation.FLOOR_ULPS:g} ulp of S): below it, not drawn")  # fmt: skip
+        ax.plot(
+            [],
+            [],
+            color="0.5",
+            linewidth=0.8,
+            linestyle=":",
+            label=f"round-off ({_relaxation.FLOOR_ULPS:g} ulp of S): below it, not drawn",
+        )
     ax.set_xlabel("t")
     ax.set_ylabel("S - S∞" if direction < 0 else "S∞ - S")
     ax.grid(True, which="major", linewidth=0.4, alpha=0.6)

@@ -17,7 +17,8 @@ class SceneError(ValueError):
     def __init__(self, source: str, key: str | None, problem: str) -> None:
         self.source, self.key, self.problem = source, key, problem
         where = f"{source}: " if source else ""
-        super().__init__(f"{where}`{key}`: {problem}" if key else f"{where}{problem}")
+        shown = key if key is None or len(key) <= 120 else f"{key[:100]}... ({len(key)} characters)"
+        super().__init__(f"{where}`{shown}`: {problem}" if key else f"{where}{problem}")
 
 
 # section -> key in the file -> Scene field; "" is the top level
@@ -248,7 +249,7 @@ class _Checker:
                 )
             self.fail(
                 "system.catalogue",
-                f"unknown R^n catalogue system {value!r}; known: {_listing(RN_CATALOGUE)}"
+                f"unknown R^n catalogue system {_short(value)}; known: {_listing(RN_CATALOGUE)}"
                 f"{_validate.did_you_mean(value, RN_CATALOGUE)}",
             )
         return value
@@ -300,13 +301,13 @@ class _Checker:
             return value
         if isinstance(value, (list, tuple)):
             if not value:
-                self.fail("output.limit", "must name S_inf: \"known\", \"tail\", a number or one per trajectory.")
+                self.fail("output.limit", 'must name S_inf: "known", "tail", a number or one per trajectory.')
             return tuple(self.real("output.limit", v) for v in value)
         if isinstance(value, str):
             self.fail(
                 "output.limit",
                 f'must be "known" (the closed form), "tail" (estimated from the run), a number or one per '
-                f"trajectory; got {value!r}{_validate.did_you_mean(value, ['known', 'tail'])}",
+                f"trajectory; got {_short(value)}{_validate.did_you_mean(value, ['known', 'tail'])}",
             )
         return self.real("output.limit", value)
 
@@ -371,6 +372,11 @@ def _unknown(key, known, takes, sort=True, listed=True):
     names = [str(k) for k in known]
     listing = (_listing(names) if sort else ", ".join(names)) if listed else ""
     return f"unknown key; {takes}{' ' + listing if listing else ''}{_validate.did_you_mean(key, names)}"
+
+
+def _short(text, most=60):
+    """``repr(text)`` of at most ``most`` characters (a name quoted in a one-line error)."""
+    return repr(text) if len(text) <= most else repr(text[:most]) + f"... ({len(text)} characters)"
 
 
 def _describe(value):

@@ -8,7 +8,12 @@
     E = "sum(p[i]**2/2 + cos(q[i]), i) + s"
     S = "s"
     L = { "q[i], p[i]" = "1", "p[i], q[i]" = "-1" }
-    M = { "p[i], p[i]" = "gamma", "p[i], s" = "-gamma*p[i]", "s, p[i]" = "-gamma*p[i]", "s, s" = "gamma*sum(p[i]**2, i)" }
+
+    [system.M]                                     # a long table of rules as a table of its own
+    "p[i], p[i]" = "gamma"
+    "p[i], s" = "-gamma*p[i]"
+    "s, p[i]" = "-gamma*p[i]"
+    "s, s" = "gamma*sum(p[i]**2, i)"
 
 E, S, L, M make the GENERIC form (``GenericSystem.from_expressions``); H, S, P and optionally ``metric`` the
 Fish form (``MetriplecticSystemN.from_expressions``, eps from ``effects.eps``).  A matrix is n lists of n
@@ -30,9 +35,9 @@ from __future__ import annotations
 import ast
 import inspect
 import keyword
+import math
 import re
 from dataclasses import dataclass, field
-from typing import Any
 
 from .. import _validate
 from .checks import SceneError, _describe
@@ -40,9 +45,23 @@ from .checks import SceneError, _describe
 #: the functions of the formula grammar (``geomint.model.expressions.FUNCTIONS``; named here so that checking a
 #: scene imports no sympy, and a test keeps the two equal)
 FUNCTION_NAMES = (
-    "exp", "log", "sqrt", "abs", "sin", "cos", "tan", "sinh", "cosh", "tanh",
-    "asin", "acos", "atan", "asinh", "acosh", "atanh",
-)  # fmt: skip
+    "exp",
+    "log",
+    "sqrt",
+    "abs",
+    "sin",
+    "cos",
+    "tan",
+    "sinh",
+    "cosh",
+    "tanh",
+    "asin",
+    "acos",
+    "atan",
+    "asinh",
+    "acosh",
+    "atanh",
+)
 #: sum(term, i), sum(term, i, first, last), prod(...), delta(i, j)
 SPECIAL = ("sum", "prod", "delta")
 RESERVED = set(FUNCTION_NAMES) | set(SPECIAL) | {"pi"}
@@ -168,8 +187,11 @@ class _FormulaChecker:
         for i, text in enumerate(variables):
             key = f"system.variables[{i}]"
             if not isinstance(text, str) or len(text) > 100:
-                self.fail(key, f"must be a name as a string (at most 100 characters), e.g. 'q' or 'q[1..N]'; got "
-                          f"{_describe(text)[:120]}.")  # fmt: skip
+                self.fail(
+                    key,
+                    f"must be a name as a string (at most 100 characters), e.g. 'q' or 'q[1..N]'; got "
+                    f"{_describe(text)[:120]}.",
+                )
             match = _DECLARATION.fullmatch(text)
             if match is None:
                 self.fail(key, f"{text!r} is neither a name (an identifier) nor a family 'q[N]' or 'q[1..N]'.")
@@ -181,9 +203,9 @@ class _FormulaChecker:
                 continue
             if ".." in bracket:
                 first, last = bracket.split("..", 1)
-                lo, hi = self.integer(key, first, declared.sizes), self.integer(key, last, declared.sizes)
+                lo, hi = self.bound(key, first, declared.sizes), self.bound(key, last, declared.sizes)
             else:
-                lo, hi = 0, self.integer(key, bracket, declared.sizes) - 1
+                lo, hi = 0, self.bound(key, bracket, declared.sizes) - 1
             if hi < lo:
                 self.fail(key, f"the family {text!r} is empty ({name}[{lo}..{hi}]).")
             if hi - lo + 1 > MAX_SIZE:
@@ -209,8 +231,18 @@ class _FormulaChecker:
         return declared
 
     def identifier(self, key, name):
-        if not isinstance(name, str) or not name.isidentifier() or keyword.iskeyword(name) or name.startswith("_"):
-            self.fail(key, f"must be a name (letters, digits, _; not a keyword, not starting with _); got {name!r}.")
+        if (
+            not isinstance(name, str)
+            or not name.isidentifier()
+            or keyword.iskeyword(name)
+            or name.startswith("_")
+            or len(name) > 50
+        ):
+            self.fail(
+                key,
+                "must be a name (letters, digits, _; not a keyword, not starting with _, at most 50 characters); "
+                f"got {_quote(str(name), 60)}.",
+            )
 
     def new_name(self, key, name, declared):
         self.identifier(key, name)
@@ -227,13 +259,29 @@ class _FormulaChecker:
             if name in names:
                 self.fail(key, f"{name!r} is already {what}; names must be distinct.")
 
+    def bound(self, key, text, sizes):
+        """A family's bound: an integer expression of integers and sizes."""
+        try:
+            node = ast.parse(text.strip(), mode="eval").body
+        except SyntaxError:
+            self.fail(key, f"{_quote(text.strip(), 60)} is not an integer expression of sizes (N, N-1, 2*N).")
+        for sub in ast.walk(node):
+            if isinstance(sub, ast.Name) and sub.id not in sizes:
+                self.fail(
+                    key,
+                    f"{_quote(sub.id, 40)} in the bound {_quote(text.strip(), 60)} is not a declared size (sizes: "
+                    f"{', '.join(sizes) or 'none'}); declare it, sizes = {{ {sub.id} = 8 }}"
+                    f"{_validate.did_you_mean(sub.id, sizes)}",
+                )
+        return self.integer_node(key, node, text, sizes, ())
+
     def integer(self, key, text, sizes, indices=()):
         """An integer expression of integers, sizes and ``indices`` (+ - *), its value (None when it uses an
         index), or a failure naming ``key``."""
         try:
             node = ast.parse(text.strip(), mode="eval").body
         except SyntaxError:
-            self.fail(key, f"{text.strip()!r} is not an integer expression of sizes (N, N-1, 2*N).")
+            self.fail(key, f"{_quote(text.strip(), 60)} is not an integer expression of sizes (N, N-1, 2*N).")
         return self.integer_node(key, node, text, sizes, indices)
 
     def integer_node(self, key, node, text, sizes, indices):
@@ -249,8 +297,9 @@ class _FormulaChecker:
             scope = "" if not indices else f" or an index in scope ({', '.join(sorted(indices))})"
             self.fail(
                 key,
-                f"index {node.id!r} is not declared: an index is a size ({', '.join(sizes) or 'none declared'})"
-                f"{scope}, bound by the rule's key (\"p[i], s\") or by sum(term, {node.id})"
+                f"index {_quote(node.id, 40)} is not declared: an index is a size "
+                f"({', '.join(sizes) or 'none declared'})"
+                f'{scope}, bound by the rule\'s key ("p[i], s") or by sum(term, {node.id})'
                 f"{_validate.did_you_mean(node.id, [*sizes, *indices])}",
             )
         if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
@@ -275,7 +324,7 @@ class _FormulaChecker:
         try:
             tree = ast.parse(text.strip(), mode="eval")
         except SyntaxError as exc:
-            self.fail(key, f"is not a formula ({exc.msg}): {text!r}.")
+            self.fail(key, f"is not a formula ({exc.msg}): {_quote(text)}.")
         nodes = sum(1 for _ in ast.walk(tree))
         if nodes > MAX_NODES:
             self.fail(key, f"has {nodes} syntax nodes; formulas are limited to {MAX_NODES}.")
@@ -285,7 +334,7 @@ class _FormulaChecker:
         n = declared.n
         if isinstance(value, dict):
             if not value:
-                self.fail(key, "has no rules; give rules { \"row, column\" = formula } or n lists of n formulas.")
+                self.fail(key, 'has no rules; give rules { "row, column" = formula } or n lists of n formulas.')
             for rule, text in value.items():
                 rule_key = f'{key}["{rule}"]' if isinstance(rule, str) and len(rule) <= 60 else f"{key}[rule]"
                 indices = self.rule(rule_key, rule, declared)
@@ -311,15 +360,15 @@ class _FormulaChecker:
     def rule(self, key, rule, declared):
         """The indices a rule's key ``"row, column"`` binds; each part a variable or a family member."""
         if not isinstance(rule, str):
-            self.fail(key, f"a rule's key must be a string \"row, column\"; got {_describe(rule)}.")
+            self.fail(key, f'a rule\'s key must be a string "row, column"; got {_describe(rule)}.')
         parts = _split_top(rule)
         if len(parts) != 2:
-            self.fail(key, f"a rule's key must be \"row, column\" (two coordinates); got {rule!r}.")
+            self.fail(key, f'a rule\'s key must be "row, column" (two coordinates); got {_quote(rule, 80)}.')
         indices = set()
         for part in parts:
             match = _DECLARATION.fullmatch(part)
             if match is None:
-                self.fail(key, f"{part.strip()!r} is neither a variable nor a family member q[i].")
+                self.fail(key, f"{_quote(part.strip(), 60)} is neither a variable nor a family member q[i].")
             name, bracket = match.groups()
             if bracket is None:
                 if name in declared.scalars:
@@ -334,13 +383,13 @@ class _FormulaChecker:
             try:
                 node = ast.parse(bracket.strip(), mode="eval").body
             except SyntaxError:
-                self.fail(key, f"{bracket.strip()!r} is not an index (i, i+1, N, 0).")
+                self.fail(key, f"{_quote(bracket.strip(), 60)} is not an index (i, i+1, N, 0).")
             # a name in the bracket that is no size is an index the rule binds (it runs over every value for
             # which its row and column both exist)
             for sub in ast.walk(node):
                 if isinstance(sub, ast.Name) and sub.id not in declared.sizes:
                     if sub.id in RESERVED or sub.id in declared.known():
-                        self.fail(key, f"{sub.id!r} is not an index: it names a {_kind(sub.id, declared)}.")
+                        self.fail(key, f"{_quote(sub.id, 40)} is not an index: it names a {_kind(sub.id, declared)}.")
                     indices.add(sub.id)
             self.integer_node(key, node, bracket, declared.sizes, indices)
         return indices
@@ -358,8 +407,13 @@ class _Walk:
     def visit(self, node, indices):
         declared = self.declared
         if isinstance(node, ast.Constant):
-            if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
+            value = node.value
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
                 self.refuse(node, "only real numbers are allowed as constants")
+            if isinstance(value, int) and abs(value) > 10**15:
+                self.refuse(node, "integer constant larger than 1e15")
+            if isinstance(value, float) and not math.isfinite(value):
+                self.refuse(node, "constant is not finite")
             return
         if isinstance(node, ast.Name):
             name = node.id
@@ -372,8 +426,9 @@ class _Walk:
             known = [*declared.known(), *indices]
             self.checker.fail(
                 self.key,
-                f"unknown name {name!r} in {self.text!r} (the variables: {_shown_names(declared.names)}; parameters, "
-                f"sizes and definitions are declared in [system]){_validate.did_you_mean(name, known)}",
+                f"unknown name {_quote(name, 40)} in {_quote(self.text)} (the variables: "
+                f"{_shown_names(declared.names)}; parameters, sizes and definitions are declared in [system])"
+                f"{_validate.did_you_mean(name, known)}",
             )
         if isinstance(node, ast.Subscript):
             base = node.value
@@ -382,7 +437,7 @@ class _Walk:
             if base.id not in declared.families:
                 if base.id in declared.scalars:
                     self.refuse(node, f"{base.id!r} is a single variable, not a family: write {base.id}")
-                self.checker.fail(self.key, f"in {self.text!r}: {_unknown_variable(base.id, declared)}")
+                self.checker.fail(self.key, f"in {_quote(self.text)}: {_unknown_variable(base.id, declared)}")
             index = node.slice
             self.checker.integer_node(self.key, index, self.text, declared.sizes, indices)
             return
@@ -394,7 +449,10 @@ class _Walk:
             if not isinstance(node.op, (ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow)):
                 self.refuse(node, "only + - * / ** are allowed")
             self.visit(node.left, indices)
-            return self.visit(node.right, indices)
+            self.visit(node.right, indices)
+            if _log10_size(node) > _MAX_LOG10:
+                self.refuse(node, "constant beyond 1e300")
+            return
         if isinstance(node, ast.Call):
             return self.call(node, indices)
         self.refuse(node, f"{type(node).__name__.lower()} is not allowed")
@@ -405,8 +463,9 @@ class _Walk:
             name = func.id if isinstance(func, ast.Name) else _piece(self.text, func)
             self.checker.fail(
                 self.key,
-                f"{str(name)[:60]!r} in {self.text[:200]!r} is not a function of the grammar "
-                f"({', '.join(FUNCTION_NAMES)}, sum, prod, delta){_validate.did_you_mean(str(name), [*FUNCTION_NAMES, *SPECIAL])}",
+                f"{_quote(str(name), 40)} in {_quote(self.text)} is not a function of the grammar "
+                f"({', '.join(FUNCTION_NAMES)}, sum, prod, delta)"
+                f"{_validate.did_you_mean(str(name), [*FUNCTION_NAMES, *SPECIAL])}",
             )
         if node.keywords or any(isinstance(a, ast.Starred) for a in node.args):
             self.refuse(node, "a function takes positional arguments only")
@@ -452,7 +511,7 @@ def build(source, expressions, parameters, eps, name):
             "system.variables",
             "systems in R^n written as formulas need MetriplecticSystemN.from_expressions(variables=...) and "
             "GenericSystem.from_expressions, which this build of geomint does not have yet (the scene's formulas "
-            "are valid); meanwhile name a catalogue system, catalogue = \"damped_pendula\".",
+            'are valid); meanwhile name a catalogue system, catalogue = "damped_pendula".',
         )
     kwargs = {k: v for k, v in expressions.items()}
     try:
@@ -477,8 +536,41 @@ def model_key(message: str, expressions: dict | None = None) -> str:
 
 
 # -- helpers ----------------------------------------------------------------------------------
+_MAX_LOG10 = 300.0
+
+
+def _log10_size(node) -> float:
+    """log10 of the size of a constant subexpression (0 where it holds a name: its size is not constant), never
+    computing the value itself: ``9**9**9**9`` is measured, not evaluated."""
+    if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) and not isinstance(node.value, bool):
+        value = abs(float(node.value))
+        return math.log10(value) if 0.0 < value < math.inf else 0.0
+    if isinstance(node, ast.UnaryOp):
+        return _log10_size(node.operand)
+    if isinstance(node, ast.BinOp) and _constant(node):
+        left, right = _log10_size(node.left), _log10_size(node.right)
+        if isinstance(node.op, ast.Pow):
+            exponent = 10.0 ** min(right, 17.0)  # an exponent's own size, capped: 1e17 already overflows
+            return exponent * left if left > 0 else 0.0
+        if isinstance(node.op, ast.Mult):
+            return left + right
+        if isinstance(node.op, ast.Div):
+            return left
+        return max(left, right)
+    return 0.0
+
+
+def _constant(node) -> bool:
+    return not any(isinstance(sub, (ast.Name, ast.Subscript, ast.Call)) for sub in ast.walk(node))
+
+
+def _quote(text, most=200):
+    """``repr(text)``, cut to ``most`` characters (a one-line error quotes it)."""
+    return repr(text) if len(text) <= most else repr(text[:most]) + f"... ({len(text)} characters)"
+
+
 def _piece(text, node):
-    return ast.get_source_segment(text, node) or type(node).__name__
+    return _quote(ast.get_source_segment(text, node) or type(node).__name__, 80)[1:-1]
 
 
 def _split_top(text):
@@ -513,7 +605,7 @@ def _kind(name, declared):
 def _unknown_variable(name, declared):
     known = [*declared.scalars, *declared.families]
     return (
-        f"unknown variable {name!r}; the variables are {_shown_names(declared.names)}"
+        f"unknown variable {_quote(name, 40)}; the variables are {_shown_names(declared.names)}"
         f"{_validate.did_you_mean(name, known)}"
     )
 

@@ -40,9 +40,12 @@ def tail_limit(t: npt.ArrayLike, S: npt.ArrayLike) -> Limit:
     t, S = t[keep], S[keep]
     if len(S) < 3:
         return Limit(float(S[-1]), "tail", "S_inf = the last value of S (too few saved states to extrapolate)")
-    end = t[-1]
-    half = 0.25 * (end - t[0])
-    rows = [int(np.argmin(np.abs(t - (end - k * half)))) for k in (2, 1, 0)]
+    # three saved states a quarter of the run apart, ending at the last (equally spaced where the states are
+    # saved at a fixed step, as a scene saves them)
+    last = len(S) - 1
+    k = max(1, last // 4)
+    rows = [last - 2 * k, last - k, last]
+    half = float(t[last] - t[last - k])
     S0, S1, S2 = S[rows]
     d1, d2 = S1 - S0, S2 - S1
     roundoff = FLOOR_ULPS * EPS * max(abs(S2), abs(S0), 1e-300)

@@ -26,7 +26,8 @@ from ..model.system import MetriplecticSystem
 from ..run.arguments import MAX_STEPS
 from ..run.controller import step_count
 from ..systems import CATALOGUE, RN_CATALOGUE
-from . import catalogue_n, formulas_n, states as _states
+from . import catalogue_n, formulas_n
+from . import states as _states
 from .checks import (
     _EXPRESSION_KEYS,
     _EXPRESSION_KEYS_N,
@@ -222,6 +223,7 @@ class Scene:
     def __post_init__(self) -> None:
         check = _Checker(self.source)
         set_ = lambda name, value: object.__setattr__(self, name, value)  # noqa: E731 (frozen dataclass)
+        set_("_declared_names", None)  # the coordinates of a system as formulas in R^n, from its declarations
         if self.expressions is None and (self.arguments is not None or self.system in RN_CATALOGUE):
             set_("system", check.rn_catalogue(self.system))
             set_("arguments", check.arguments(self.system, {} if self.arguments is None else self.arguments))
@@ -236,8 +238,9 @@ class Scene:
             set_("parameters", check.parameters(self.system, self.parameters))
         elif "variables" in self.expressions:
             set_("system", check.label("system", self.system))
-            expressions, _ = formulas_n.check(self.source, self.expressions, self.parameters)
+            expressions, declared = formulas_n.check(self.source, self.expressions, self.parameters)
             set_("expressions", expressions)
+            set_("_declared_names", tuple(declared.names))
             set_("parameters", {k: float(v) for k, v in self.parameters.items()})
         else:
             set_("system", check.label("system", self.system))
@@ -281,8 +284,10 @@ class Scene:
         if self.in_rn:
             self._check_rn(check)
         elif "vorticity" in self.figures:
-            check.fail("output.figures", "'vorticity' draws 2-D Euler's vorticity (catalogue euler_zeitlin, "
-                       "euler_galerkin), a system in R^n.")  # fmt: skip
+            check.fail(
+                "output.figures",
+                "'vorticity' draws 2-D Euler's vorticity (catalogue euler_zeitlin, euler_galerkin), a system in R^n.",
+            )
         if self.figures and self.every == "final":
             raise SceneError(
                 self.source,
@@ -514,6 +519,22 @@ class Scene:
         object.__setattr__(resolved, "_built", Built(system, method, states))
         return resolved
 
+    def _resolve_names(self, variables, system=None):
+        """``(series, phase, states)`` with the coordinates ``variables``: every name the scene gives checked."""
+        states = _states.resolve(self.source, variables, self.points, self.state, self.random, self.fill)
+        series = self.series if self.series is not None else _states.default_series(variables)
+        phase = self.phase if self.phase is not None else _states.default_phase(variables)
+        for key, names in (("output.series", series), ("output.phase", phase)):
+            _states.check_names(self.source, key, names, variables)
+        if len(set(_states.expand(phase, variables))) not in (2, 3):
+            raise SceneError(
+                self.source,
+                "output.phase",
+                f"must name 2 or 3 coordinates to project onto; {list(phase)} names "
+                f"{len(_states.expand(phase, variables))}.",
+            )
+        return series, phase, states
+
     def _check_method(self, method, system):
         try:
             method.check_system(system)
@@ -525,23 +546,14 @@ class Scene:
         arguments = None
         if self.arguments is not None:
             arguments = {k: plain(v) for k, v in {**catalogue_n.defaults(self.system), **self.arguments}.items()}
+        declared = self._declared_names  # pyright: ignore[reportAttributeAccessIssue]  # set in __post_init__
+        if declared is not None:  # formulas: the coordinates are known before the system is built
+            self._resolve_names(declared)
         system = self._system_n(arguments)
+        series, phase, states = self._resolve_names(system.variables, system)
         base = self._base_method()
         method = self._projected(base)
-        states = self._initial_states(system, None)
         self._check_method(method, system)
-        variables = system.variables
-        check = _Checker(self.source)
-        series = self.series if self.series is not None else _states.default_series(variables)
-        phase = self.phase if self.phase is not None else _states.default_phase(variables)
-        for key, names in (("output.series", series), ("output.phase", phase)):
-            _states.check_names(self.source, key, names, variables)
-        if len(set(_states.expand(phase, variables))) not in (2, 3):
-            check.fail(
-                "output.phase",
-                f"must name 2 or 3 coordinates to project onto; {list(phase)} names "
-                f"{len(_states.expand(phase, variables))}.",
-            )
         snapshots = self.snapshots
         if snapshots is None and "vorticity" in self.figures:
             snapshots = tuple(float(f * self.duration) for f in (0.0, 0.1, 0.25, 0.5, 1.0))
@@ -664,9 +676,7 @@ def _system_fields(source, table, fields):
                     '(["q[1..N]", "p[1..N]", "s"]); in R^3 a system as formulas takes H, S and J or P.',
                 )
             takes = "`[system]` takes catalogue (a system in R^n, with its arguments), name, parameters and formulas:"
-            raise SceneError(
-                source, f"system.{sub}", _unknown(sub, ["catalogue", *known], takes)
-            )
+            raise SceneError(source, f"system.{sub}", _unknown(sub, ["catalogue", *known], takes))
         if sub == "name":
             if value in RN_CATALOGUE and not formulas_n_given and not any(k in table for k in _EXPRESSION_KEYS):
                 raise SceneError(

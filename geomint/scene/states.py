@@ -22,7 +22,7 @@ import re
 import numpy as np
 
 from .. import _validate
-from .checks import MAX_TRAJECTORIES, SceneError, _describe
+from .checks import MAX_TRAJECTORIES, SceneError, _describe, _short
 
 RANDOM_KEYS = ("n", "seed", "ranges", "around", "std")
 _MEMBER = re.compile(r"([A-Za-z_]+)(m?\d+)")
@@ -86,7 +86,7 @@ class _States:
         known = [*self.variables, *self.families]
         self.fail(
             f"{key}.{name}",
-            f"unknown coordinate {name!r}; the system's coordinates are {shown(self.variables)}"
+            f"unknown coordinate {_short(name)}; the system's coordinates are {shown(self.variables)}"
             + (f" (families {', '.join(self.families)})" if self.families else "")
             + _validate.did_you_mean(name, known),
         )
@@ -176,8 +176,10 @@ def static_check(source, points, state, random, level_set, fill):
             )
     n = random.get("n")
     if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_TRAJECTORIES:
-        fail("initial.random.n", f"must be an integer in [1, {MAX_TRAJECTORIES}] (the number of states); got "
-             f"{_describe(n)}.")  # fmt: skip
+        fail(
+            "initial.random.n",
+            f"must be an integer in [1, {MAX_TRAJECTORIES}] (the number of states); got {_describe(n)}.",
+        )
     seed = random.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         fail("initial.random.seed", f"must be an integer >= 0; got {_describe(seed)}.")
@@ -202,9 +204,7 @@ def resolve(source, variables, points, state, random, fill) -> np.ndarray:
     if state is not None:
         if isinstance(state, dict):
             return np.array([states.table("initial.state", state, fill)], dtype=np.float64)
-        return np.array(
-            [states.table(f"initial.state[{i}]", t, fill) for i, t in enumerate(state)], dtype=np.float64
-        )
+        return np.array([states.table(f"initial.state[{i}]", t, fill) for i, t in enumerate(state)], dtype=np.float64)
     rng = np.random.default_rng(random.get("seed", 0))
     m = random["n"]
     if "ranges" in random:
@@ -222,7 +222,9 @@ def resolve(source, variables, points, state, random, fill) -> np.ndarray:
         return low + (high - low) * rng.random((m, states.n))
     around = random["around"]
     key = "initial.random.around"
-    mean = np.array(states.vector(key, around) if isinstance(around, (list, tuple)) else states.table(key, around, fill))
+    mean = np.array(
+        states.vector(key, around) if isinstance(around, (list, tuple)) else states.table(key, around, fill)
+    )
     std = random["std"]
     key = "initial.random.std"
     if isinstance(std, dict):
@@ -268,7 +270,7 @@ def check_names(source, key, names, variables) -> None:
             raise SceneError(
                 source,
                 key,
-                f"unknown coordinate {name!r}; the system's coordinates are {shown(variables)}"
+                f"unknown coordinate {_short(name)}; the system's coordinates are {shown(variables)}"
                 + (f" (families {', '.join(fams)})" if fams else "")
                 + _validate.did_you_mean(name, [*variables, *fams]),
             )
