@@ -267,8 +267,16 @@ class _CompilationNotice:
 
         notice = self
 
+        from numba.core.caching import NullCache
+
         class Listener(event.Listener):
             def on_start(self, ev):
+                # a helper of geomint's compiled without a disk cache compiles in every process, in milliseconds
+                # (the R^n workspace's size): that is not the first use of a method, and is not announced as one
+                dispatcher = ev.data.get("dispatcher")
+                module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
+                if module.startswith("geomint.") and isinstance(getattr(dispatcher, "_cache", None), NullCache):
+                    return
                 notice._compiling()
 
             def on_end(self, ev):
@@ -371,6 +379,8 @@ def _report_n(result, summary, out):
     )
     for i, t in enumerate(summary["trajectories"]):
         rate = "no clean exponential tail" if t["decay_rate"] is None else f"rate {t['decay_rate']:.4g}"
+        if "expected_rate" in t:
+            rate += f"; expected: {t['expected_rate_why']}"
         line = (
             f"  trajectory {i}: S_inf = {t['S_limit']:.12g} ({t['S_limit_from']}), |S - S_inf| at the end "
             f"{t['S_gap_final']:.2g}, {rate}"

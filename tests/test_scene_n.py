@@ -96,6 +96,8 @@ def test_each_bundled_rn_scene_runs_from_the_command_line_with_its_figures(name,
         assert trajectory["S_limit_from"] == "known"
         assert trajectory["S_gap_final"] < 1e-12 * max(1.0, abs(trajectory["S_limit"])), trajectory
         assert trajectory["decay_rate"] is not None and trajectory["decay_rate"] > 0
+        if name in ("heat_bath", "damped_pendula"):  # the linearised rate (Euler's is the dissipative part's)
+            assert trajectory["decay_rate"] == pytest.approx(trajectory["expected_rate"], rel=0.01)
 
 
 def test_the_euler_scene_relaxes_to_within_1e_8_of_the_lowest_shell():

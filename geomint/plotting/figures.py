@@ -228,15 +228,10 @@ def _energy_figure(plt, result):
 
 
 def _reference_rate(result):
-    """2-D Euler's linearised rate ``8 eps H0`` (the dissipative part alone, near the lowest shell) to compare
-    the fit with; None for other systems."""
-    if not result.scene.is_euler or not result.scene.eps > 0:
-        return None
-    H0 = float(result.solutions[0].H[0])
-    return (
-        8.0 * result.scene.eps * H0,
-        f"8 ε H0 = {8.0 * result.scene.eps * H0:.4g} (linearised, dissipative part alone)",
-    )
+    """The rate the catalogue expects near the limit (``geomint.scene.catalogue_n.expected_rate``: 2-D Euler's
+    linearised ``8 eps H0``, the heat bath's ``gamma / m``, the pendula's ``gamma``) to compare the fit with;
+    None for other systems."""
+    return result.scene.expected_rate(float(result.solutions[0].H[0]))
 
 
 def _relaxation_figure(plt, result):

@@ -106,3 +106,30 @@ def known_limit(name: str, arguments: dict, hamiltonian: bool, eps: float) -> Li
     if friction is not None and not {**defaults(name), **arguments}.get(friction, 1.0) > 0.0:
         return None
     return limit
+
+
+def expected_rate(name: str, arguments: dict, hamiltonian: bool, eps: float, H0: float) -> tuple[float, str] | None:
+    """The rate at which ``|S - S_inf|`` is expected to decay near the end, from the linearisation at the
+    limit, with what it is (for a key), or None where the catalogue has none:
+
+    * 2-D Euler: ``8 eps H0``, the slowest shell (|k|^2 = 2) under the dissipative part alone (the Hamiltonian
+      part's mixing makes the whole flow faster);
+    * the heat bath: ``gamma / m``, the decay of the damped oscillator's energy (underdamped);
+    * the damped pendula: ``gamma``, the same for each pendulum near the bottom (mass 1, stiffness 1).
+    """
+    if eps <= 0.0:
+        return None
+    values = {**defaults(name), **arguments} if name in RN_CATALOGUE else {}
+    if name in ("euler_zeitlin", "euler_galerkin"):
+        return 8.0 * eps * H0, f"8 ε H0 = {8.0 * eps * H0:.4g} (linearised, dissipative part alone)"
+    if not hamiltonian:
+        return None
+    if name == "heat_bath_oscillator":
+        m, k, gamma = values["m"], values["k"], values["gamma"]
+        if gamma > 0 and gamma * gamma < 4 * m * k:
+            return gamma / m, f"γ/m = {gamma / m:.4g} (the damped oscillator's energy, linearised)"
+    if name == "damped_pendula":
+        gamma = values["gamma"]
+        if 0 < gamma < 2:
+            return gamma, f"γ = {gamma:.4g} (each pendulum's energy near the bottom, linearised)"
+    return None

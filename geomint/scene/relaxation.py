@@ -45,7 +45,6 @@ def tail_limit(t: npt.ArrayLike, S: npt.ArrayLike) -> Limit:
     last = len(S) - 1
     k = max(1, last // 4)
     rows = [last - 2 * k, last - k, last]
-    half = float(t[last] - t[last - k])
     S0, S1, S2 = S[rows]
     d1, d2 = S1 - S0, S2 - S1
     roundoff = FLOOR_ULPS * EPS * max(abs(S2), abs(S0), 1e-300)
@@ -56,7 +55,7 @@ def tail_limit(t: npt.ArrayLike, S: npt.ArrayLike) -> Limit:
         return Limit(
             float(S2 + d2 * ratio / (1.0 - ratio)),
             "tail",
-            f"S_inf estimated from the tail (Aitken, decay ratio {ratio:.3g} per {half:.3g} time units)",
+            "S_inf estimated from the tail of the run (Aitken's extrapolation over its last half)",
         )
     return Limit(float(S[-1]), "tail", "S_inf = the last value of S (not yet relaxing geometrically: a guess)")
 

@@ -116,6 +116,9 @@ class SceneResult:
                 "decay_rate": None if rate is None else rate.rate,
                 "decay_rate_fitted_over": None if rate is None else [rate.t_from, rate.t_to],
             }
+            expected = self.scene.expected_rate(float(sol.H[0]))
+            if expected is not None:
+                entry["expected_rate"], entry["expected_rate_why"] = expected
             if self.scene.is_euler:
                 entry["lowest_shell_distance"] = _relaxation.lowest_shell_distance(sol.x_final)
             out.append(entry)

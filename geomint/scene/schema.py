@@ -366,6 +366,13 @@ class Scene:
             return None
         return catalogue_n.known_limit(self.system, self.arguments, self.hamiltonian, self.eps)
 
+    def expected_rate(self, H0: float) -> tuple[float, str] | None:
+        """The catalogue's linearised rate of ``|S - S_inf|`` near the limit for energy ``H0``, with what it is
+        (``catalogue_n.expected_rate``), or None."""
+        if self.arguments is None:
+            return None
+        return catalogue_n.expected_rate(self.system, self.arguments, self.hamiltonian, self.eps, H0)
+
     # -- construction ----------------------------------------------------------------------
     @classmethod
     def from_toml(cls, path: str | os.PathLike[str]) -> Scene:
