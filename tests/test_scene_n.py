@@ -674,3 +674,13 @@ def test_hostile_strings_in_every_rn_field_are_refused_before_anything_is_built(
             accepted.append(text)
     assert not sentinel.exists()
     assert accepted == []
+
+
+def test_the_invariants_panel_marks_steps_against_the_entropys_direction():
+    """In GENERIC form S rises by design: the S panel marks falls, and counts none."""
+    result = run_scene(Scene.from_dict(__import__("tomllib").loads(PENDULA)))
+    assert result.solutions[0].S_rises > 0
+    ax = plotting.casimir(result.solutions)
+    assert ax.get_title() == "entropy S: 0 falls beyond round-off"
+    body = geomint.solve(geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.5), [0.6, 0.0, 0.8], (0, 1), 0.1)
+    assert plotting.casimir(body).get_title() == "Casimir S: 0 rises beyond round-off"
