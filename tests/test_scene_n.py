@@ -307,6 +307,13 @@ ERRORS = [
         'figures = []\nlimit = "known"',
         r"`output.limit`: 'random_fish' has no closed-form S_inf",
     ),
+    (
+        PENDULA.replace('"damped_pendula"', '"gas_containers"').replace("N = 3\n", ""),
+        "state = { q = 1.5, p = 0.0, s = 0.0 }",
+        "state = [{ q = 1.0, p = 0.0, S = 0.0 }, { q = 2.5, p = 0.0, S = 0.0 }]",
+        r"`initial.state\[1\]`: E and S must be finite at the start; at \(q = 2.5, p = 0, S1 = 0, S2 = 0\) "
+        r"E = nan, S = 0.0: the state is outside the system's domain",
+    ),
     # formulas: the scene's own checks, before anything is built
     (
         FORMULAS,

@@ -542,6 +542,29 @@ class Scene:
             )
         return series, phase, states
 
+    def _check_starts(self, system, states):
+        """Each start where the system is defined (E or H and S finite), or a ``SceneError`` naming the state."""
+        with np.errstate(all="ignore"):
+            try:
+                H, S = np.atleast_1d(system.H(states)), np.atleast_1d(system.S(states))
+            except (ValueError, TypeError, ArithmeticError) as exc:
+                raise SceneError(self.source, "initial", " ".join(str(exc).split())) from None
+        for i in np.flatnonzero(~(np.isfinite(H) & np.isfinite(S))):
+            if self.points is not None:
+                key = f"initial.points[{i}]"
+            elif self.state is not None:
+                key = "initial.state" if isinstance(self.state, dict) else f"initial.state[{i}]"
+            else:
+                key = f"initial.random (state {i}, seed {self.random.get('seed', 0)})"  # pyright: ignore[reportOptionalMemberAccess]
+            energy = "E" if system.direction > 0 else "H"
+            named = ", ".join(f"{v} = {x:.6g}" for v, x in zip(system.variables[:12], states[i]))
+            raise SceneError(
+                self.source,
+                key,
+                f"{energy} and S must be finite at the start; at ({named}){' ...' if len(states[i]) > 12 else ''} "
+                f"{energy} = {float(H[i])!r}, S = {float(S[i])!r}: the state is outside the system's domain.",
+            )
+
     def _check_method(self, method, system):
         try:
             method.check_system(system)
@@ -558,6 +581,7 @@ class Scene:
             self._resolve_names(declared)
         system = self._system_n(arguments)
         series, phase, states = self._resolve_names(system.variables, system)
+        self._check_starts(system, states)
         base = self._base_method()
         method = self._projected(base)
         self._check_method(method, system)
