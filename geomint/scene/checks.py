@@ -4,6 +4,7 @@ validates each field and names the key, the rule and the nearest known name when
 import inspect
 import math
 import re
+from typing import NoReturn
 
 import numpy as np
 
@@ -76,7 +77,7 @@ class _Checker:
     def __init__(self, source):
         self.source = source
 
-    def fail(self, name, problem):
+    def fail(self, name, problem) -> NoReturn:
         raise SceneError(self.source, _KEY_OF.get(name, name), problem)
 
     def real(self, name, value, minimum=None, positive=False):

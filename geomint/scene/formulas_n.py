@@ -38,6 +38,7 @@ import keyword
 import math
 import re
 from dataclasses import dataclass, field
+from typing import Any, NoReturn
 
 from .. import _validate
 from .checks import SceneError, _describe
@@ -114,7 +115,7 @@ class _FormulaChecker:
     def __init__(self, source):
         self.source = source
 
-    def fail(self, key, problem):
+    def fail(self, key, problem) -> NoReturn:
         raise SceneError(self.source, key, problem)
 
     # -- the whole system ------------------------------------------------------------------
@@ -141,7 +142,7 @@ class _FormulaChecker:
                 needs = ", ".join(FORMS[form]["required"])
                 self.fail(f"system.{key}", f"missing; a system in R^n in the {form} form needs {needs}.")
         declared = self.declarations(expressions, parameters)
-        out = {"variables": list(expressions["variables"])}
+        out: dict[str, Any] = {"variables": list(expressions["variables"])}
         if expressions.get("sizes"):
             out["sizes"] = dict(declared.sizes)
         defines = expressions.get("define") or {}
@@ -192,7 +193,7 @@ class _FormulaChecker:
                     f"must be a name as a string (at most 100 characters), e.g. 'q' or 'q[1..N]'; got "
                     f"{_describe(text)[:120]}.",
                 )
-            match = _DECLARATION.fullmatch(text)
+            match = _DECLARATION.fullmatch(str(text))
             if match is None:
                 self.fail(key, f"{text!r} is neither a name (an identifier) nor a family 'q[N]' or 'q[1..N]'.")
             name, bracket = match.groups()
@@ -273,7 +274,10 @@ class _FormulaChecker:
                     f"{', '.join(sizes) or 'none'}); declare it, sizes = {{ {sub.id} = 8 }}"
                     f"{_validate.did_you_mean(sub.id, sizes)}",
                 )
-        return self.integer_node(key, node, text, sizes, ())
+        value = self.integer_node(key, node, text, sizes, ())
+        if value is None:  # pragma: no cover - a bound of sizes alone has a value
+            self.fail(key, f"{_quote(text.strip(), 60)} is not an integer expression of sizes.")
+        return value
 
     def integer(self, key, text, sizes, indices=()):
         """An integer expression of integers, sizes and ``indices`` (+ - *), its value (None when it uses an
@@ -398,10 +402,10 @@ class _FormulaChecker:
 class _Walk:
     """The whitelist walk of one formula's ``ast``: raises on the first node outside the grammar."""
 
-    def __init__(self, checker, key, text, declared):
+    def __init__(self, checker: _FormulaChecker, key: str, text: str, declared: Declared) -> None:
         self.checker, self.key, self.text, self.declared = checker, key, text, declared
 
-    def refuse(self, node, why):
+    def refuse(self, node, why) -> NoReturn:
         self.checker.fail(self.key, f"{why}: {_piece(self.text, node)!r}.")
 
     def visit(self, node, indices):
@@ -434,6 +438,7 @@ class _Walk:
             base = node.value
             if not isinstance(base, ast.Name):
                 self.refuse(node, "only a family is indexed (q[i])")
+            assert isinstance(base, ast.Name)  # (refuse raises)
             if base.id not in declared.families:
                 if base.id in declared.scalars:
                     self.refuse(node, f"{base.id!r} is a single variable, not a family: write {base.id}")

@@ -208,7 +208,7 @@ class Scene:
     integrator: str | dict = "gonzalez"
     record: tuple = ("x", "H", "S")
     every: int | str = 1
-    figures: tuple | None = None
+    figures: Any = None  # a tuple once made (None: the default of the scene's dimension)
     view: tuple = (30.0, -60.0)
     sections: tuple = ()
     series: tuple | None = None
@@ -278,12 +278,16 @@ class Scene:
         set_("duration", check.real("duration", self.duration, positive=True))
         set_("record", check.names("record", self.record, OBSERVABLES, "observable"))
         set_("every", check.every(self.every))
-        if self.figures is None:
-            set_("figures", DEFAULT_FIGURES_N if self.in_rn else DEFAULT_FIGURES)
-        set_("figures", check.names("figures", self.figures, FIGURES, "figure"))
+        figures = check.names(
+            "figures",
+            (DEFAULT_FIGURES_N if self.in_rn else DEFAULT_FIGURES) if self.figures is None else self.figures,
+            FIGURES,
+            "figure",
+        )
+        set_("figures", figures)
         if self.in_rn:
             self._check_rn(check)
-        elif "vorticity" in self.figures:
+        elif "vorticity" in figures:
             check.fail(
                 "output.figures",
                 "'vorticity' draws 2-D Euler's vorticity (catalogue euler_zeitlin, euler_galerkin), a system in R^n.",

@@ -18,6 +18,7 @@ vector); both with ``numpy.random.default_rng(seed)``, so a scene draws the same
 from __future__ import annotations
 
 import re
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -65,7 +66,7 @@ class _States:
         self.index = {name: i for i, name in enumerate(self.variables)}
         self.families = families(self.variables)
 
-    def fail(self, key, problem):
+    def fail(self, key, problem) -> NoReturn:
         raise SceneError(self.source, key, problem)
 
     def number(self, key, value):
@@ -99,7 +100,7 @@ class _States:
         listed = (lambda item: isinstance(item, (list, tuple))) if listed is None else listed
         if not isinstance(value, dict):
             self.fail(key, f"must be a table of coordinate = {what}; got {_describe(value)}.")
-        out = [None] * self.n
+        out: list[Any] = [None] * self.n
         for name, item in value.items():
             positions, family = self.positions(key, name)
             if family and listed(item):
