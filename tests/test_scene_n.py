@@ -314,6 +314,20 @@ ERRORS = [
         r"`initial.state\[1\]`: E and S must be finite at the start; at \(q = 2.5, p = 0, S1 = 0, S2 = 0\) "
         r"E = nan, S = 0.0: the state is outside the system's domain",
     ),
+    # formulas: the model's structure checks, one line with the key
+    (
+        FORMULAS,
+        '"p[i], q[i]" = "-1"',
+        '"p[i], q[i]" = "1"',
+        r"`system.L`: `L` is not skew: L\[q1, p1\] \+ L\[p1, q1\] = 2",
+    ),
+    (
+        FORMULAS,
+        '"s, s" = "gamma*sum(p[i]**2, i)"',
+        '"s, s" = "gamma"',
+        r"`system.M`: `M` does not annihilate grad E",
+    ),
+    (FORMULAS, 'S = "s"', 'S = "s + q[1]"', r"`system.L`: `L` does not annihilate grad S"),
     # formulas: the scene's own checks, before anything is built
     (
         FORMULAS,
