@@ -45,13 +45,14 @@ from .scene import (
     CheckpointError,
     SceneError,
     bundled_scenes,
+    catalogue_n,
     load_scene,
     run_scene,
     runs_together,
     solve_together,
 )
 from .scene.toml import to_toml, toml_value
-from .systems import CATALOGUE, relaxing_rigid_body
+from .systems import CATALOGUE, RN_CATALOGUE, relaxing_rigid_body
 
 if TYPE_CHECKING:
     import os
@@ -186,7 +187,8 @@ def run(
     ) as bar:
 
         def prepare(system, method):
-            _prepare(system, method, scene.h, quiet, runs_together(scene, checkpoint))
+            start = scene.built().states[0] if scene.in_rn else None
+            _prepare(system, method, scene.h, quiet, runs_together(scene, checkpoint), start)
             bar.unpause()  # the bar's clock (rate, ETA) starts after the compilation
 
         try:
@@ -223,23 +225,25 @@ def run(
     return OK if result.success else FAILED
 
 
-def _prepare(system, method, h, quiet, together=False):
+def _prepare(system, method, h, quiet, together=False, start=None):
     """Load the compiled kernels a scene's run uses (a first run compiles them) before its progress bar
     counts: a bar that counted the compilation showed a rate and an ETA off by minutes.  One step of the
     method from an arbitrary point, its result discarded: the types of the model and the method, not their
     values, select the compiled code.  Best effort: a point where the system is undefined only leaves the
     compilation to the run.  ``together``: the kernel of ``solve_ensemble`` (``run_scene`` runs the scene's
-    trajectories together), else ``solve``'s.  When numba has to compile (nothing cached yet), that is said
-    once, as it starts, and the seconds are counted on a progress line (``_CompilationNotice``)."""
+    trajectories together), else ``solve``'s; ``start`` the point (default 0.5 in every coordinate of R^3).
+    When numba has to compile (nothing cached yet), that is said once, as it starts, and the seconds are
+    counted on a progress line (``_CompilationNotice``)."""
     if not quiet:
         print("geomint: loading the compiled kernels ...", end=" ", file=sys.stderr, flush=True)
     started = time.perf_counter()
     with _CompilationNotice(method.name, None if quiet else sys.stderr, lead="") as notice:
         try:
+            x0 = np.full(3, 0.5) if start is None else np.asarray(start, dtype=np.float64)
             if together:
-                solve_together(system, np.full((1, 3), 0.5), (0.0, h), h, method)
+                solve_together(system, x0[None, :], (0.0, h), h, method)
             else:
-                solve(system, np.full(3, 0.5), (0.0, h), h, method=method)
+                solve(system, x0, (0.0, h), h, method=method)
         except (ValueError, TypeError):  # refused at the boundary: the run itself reports the scene's own errors
             pass
     if not quiet and not notice.announced:
@@ -263,8 +267,16 @@ class _CompilationNotice:
 
         notice = self
 
+        from numba.core.caching import NullCache
+
         class Listener(event.Listener):
             def on_start(self, ev):
+                # a helper of geomint's compiled without a disk cache compiles in every process, in milliseconds
+                # (the R^n workspace's size): that is not the first use of a method, and is not announced as one
+                dispatcher = ev.data.get("dispatcher")
+                module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
+                if module.startswith("geomint.") and isinstance(getattr(dispatcher, "_cache", None), NullCache):
+                    return
                 notice._compiling()
 
             def on_end(self, ev):
@@ -341,13 +353,44 @@ def _report(result, summary, paths, out):
         f"iterations, {totals['wall_s']:.3g} s; failed: {totals['failed']}",
         file=out,
     )
-    print(
-        f"max |H - H0|/|H0| = {totals['max_energy_error']:.3g} "
-        f"({totals['max_energy_error'] / np.finfo(float).eps:.1f} ulp); S rises: {totals['S_rises']}",
-        file=out,
-    )
+    if result.scene.in_rn:
+        _report_n(result, summary, out)
+    else:
+        print(
+            f"max |H - H0|/|H0| = {totals['max_energy_error']:.3g} "
+            f"({totals['max_energy_error'] / np.finfo(float).eps:.1f} ulp); S rises: {totals['S_rises']}",
+            file=out,
+        )
     for path in paths:
         print(f"wrote {path}", file=out)
+
+
+def _report_n(result, summary, out):
+    """The R^n lines of a run's report: the energy, S against its direction, and the relaxation (S_inf, the
+    final gap, the fitted rate; for 2-D Euler the distance from the lowest shell)."""
+    totals = summary["totals"]
+    generic = totals["form"] == "GENERIC"
+    energy, way = ("E", "never falls") if generic else ("H", "never rises")
+    print(
+        f"max |{energy} - {energy}0|/|{energy}0| = {totals['max_energy_error']:.3g} "
+        f"({totals['max_energy_error'] / np.finfo(float).eps:.1f} ulp); S against its direction (S {way}): "
+        f"{totals['S_against_direction']}",
+        file=out,
+    )
+    for i, t in enumerate(summary["trajectories"]):
+        rate = "no clean exponential tail" if t["decay_rate"] is None else f"rate {t['decay_rate']:.4g}"
+        if "expected_rate" in t:
+            rate += f"; expected: {t['expected_rate_why']}"
+        line = (
+            f"  trajectory {i}: S_inf = {t['S_limit']:.12g} ({t['S_limit_from']}), |S - S_inf| at the end "
+            f"{t['S_gap_final']:.2g}, {rate}"
+        )
+        if "lowest_shell_distance" in t:
+            line += f"; distance from the lowest shell |k|^2 = 1: {t['lowest_shell_distance']:.2g}"
+        print(line, file=out)
+        if i == 9 and len(summary["trajectories"]) > 10:
+            print(f"  ... ({len(summary['trajectories']) - 10} more in the summary)", file=out)
+            break
 
 
 def describe(scene: Scene, method: Integrator) -> str:
@@ -358,13 +401,28 @@ def describe(scene: Scene, method: Integrator) -> str:
         return ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {toml_value(v)}" for k, v in data.items())
 
     system = scene.system + (" (written as formulas)" if scene.expressions is not None else "")
-    if scene.parameters:
+    if scene.arguments:
+        system += f" with {assigned(scene.arguments)}"
+    elif scene.parameters:
         system += f" with {assigned(scene.parameters)}"
-    effects = {
-        (True, True): f"Hamiltonian part and dissipation ε = {scene.eps:g}",
-        (True, False): "Hamiltonian part only (ε = 0)",
-        (False, True): f"dissipation ε = {scene.eps:g} only",
-    }[(scene.hamiltonian, scene.eps > 0)]
+    if scene.in_rn and scene._built is not None:  # pyright: ignore[reportAttributeAccessIssue]  # a resolved scene
+        built = scene.built().system
+        form = "GENERIC" if built.direction > 0 else "Fish form"
+        system += f" ({form}, n = {built.dim})"
+    generic = scene.in_rn and scene._built is not None and scene.built().system.direction > 0  # pyright: ignore[reportAttributeAccessIssue]
+    if generic:
+        scaled = "" if scene.eps == 1.0 else f", M scaled by ε = {scene.eps:g}"
+        effects = {
+            (True, True): f"reversible part L∇E and irreversible part M∇S{scaled}",
+            (True, False): "reversible part L∇E only (ε = 0)",
+            (False, True): f"irreversible part M∇S only{scaled}",
+        }[(scene.hamiltonian, scene.eps > 0)]
+    else:
+        effects = {
+            (True, True): f"Hamiltonian part and dissipation ε = {scene.eps:g}",
+            (True, False): "Hamiltonian part only (ε = 0)",
+            (False, True): f"dissipation ε = {scene.eps:g} only",
+        }[(scene.hamiltonian, scene.eps > 0)]
     data = method_to_data(method)
     options = {k: v for k, v in data.items() if k != "name"}
     integrator = data["name"] + (f" ({assigned(options)})" if options else "")
@@ -381,8 +439,12 @@ def show(scene_name: str, out: TextIO | None = None) -> int:
     )
     print(to_toml(scene.to_dict()), file=out)
     print("\n# initial states", file=out)
+    variables = scene.built().system.variables
     for x0 in scene.initial_states():
-        print(f"#   {x0.tolist()}", file=out)
+        if scene.in_rn and len(variables) <= 12:
+            print("#   " + ", ".join(f"{name} = {value!r}" for name, value in zip(variables, x0.tolist())), file=out)
+        else:
+            print(f"#   {x0.tolist()}", file=out)
     return OK
 
 
@@ -393,6 +455,16 @@ def list_all(out: TextIO | None = None) -> int:
     # (the constructors and the integrators are documented: a __doc__ is None only under python -OO)
     for name, constructor in CATALOGUE.items():
         print(f"  {name:<24}{cast(str, constructor.__doc__).strip().splitlines()[0]}", file=out)
+    print("systems in R^n ([system] catalogue, the arguments as keys of [system]; form and dimension n):", file=out)
+    for name, constructor in RN_CATALOGUE.items():
+        defaults = catalogue_n.defaults(name)
+        dimension = catalogue_n.DIMENSIONS.get(name)
+        n = f"n = {dimension.formula}" if dimension is not None else "n from its arguments"
+        if dimension is not None and not dimension.formula.strip().isdigit():
+            n += f" ({catalogue_n.dimension(name)} with the defaults)"
+        print(f"  {name:<24}{catalogue_n.form(name)}, {n}; {_first_line(constructor.__doc__)}", file=out)
+        arguments = ", ".join(f"{k} = {toml_value(v)}" for k, v in defaults.items())
+        print(f"  {'':<24}arguments: {arguments or 'none'}", file=out)
     print("integrators ([integrator] method; order and traits with the default options):", file=out)
     for name, cls in short_names().items():
         print(f"  {name:<24}{_traits(cls())}; {cast(str, cls.__doc__).strip().splitlines()[0]}", file=out)
@@ -408,7 +480,15 @@ def list_all(out: TextIO | None = None) -> int:
     print("bundled scenes (geomint run NAME):", file=out)
     for name, path in bundled_scenes().items():
         print(f"  {name:<24}{load_scene(str(path)).title}", file=out)
+    print("bundled scenes in R^n (geomint run NAME):", file=out)
+    for name, path in bundled_scenes(rn=True).items():
+        print(f"  {name:<24}{load_scene(str(path)).title}", file=out)
     return OK
+
+
+def _first_line(doc):
+    """The first sentence-line of a docstring (empty under python -OO, which strips docstrings)."""
+    return (doc or "").strip().splitlines()[0] if doc else ""
 
 
 def _traits(method):

@@ -61,6 +61,7 @@ RUNNABLE_PAGES = [
     "guides/formulas_rn.md",
     "guides/analysis.md",
     "guides/ensembles.md",
+    "relaxation.md",
     "../README.md",
 ]
 

@@ -20,6 +20,15 @@ One concept per module:
   as ``<name>.<figure>.png``; ``trajectories`` and ``invariants`` are its panels.
 * ``continuation``: ``continuation_figure`` plots the eigenvalue real parts of a
   ``geomint.continuation.continuation`` against eps.
+* ``coordinates`` (any dimension, coordinates by name, ``system.variables``):
+  ``coordinate_series`` (chosen coordinates against t; a family name such as ``q`` draws
+  q1 ... qN), ``series_grid`` (a panel per coordinate for several trajectories),
+  ``phase_projection`` (trajectories projected onto 2 or 3 coordinates).
+* ``relaxation`` (any dimension): ``energy_ulps`` (the energy error in ulps of its terms),
+  ``entropy`` (S with its limits S∞), ``entropy_gap`` (``|S - S∞|`` on a log axis with the
+  fitted exponential rate; ``geomint.scene.relaxation`` estimates S∞ and fits the rate).
+* ``vorticity``: ``vorticity_field``, 2-D Euler's vorticity on the torus
+  (``geomint.systems.euler_vorticity``).
 
 Each panel function returns the axis it drew on (a new figure's when ``ax`` is None).
 ``energy_error`` and ``work_precision`` are the earlier names of ``plot_energy_error`` and
@@ -29,9 +38,12 @@ Each panel function returns the axis it drew on (a new figure's when ``ax`` is N
 
 from ._common import style
 from .continuation import continuation_figure
+from .coordinates import coordinate_series, phase_projection, series_grid
 from .figures import draw, invariants, trajectories
+from .relaxation import energy_ulps, entropy, entropy_gap
 from .series import casimir, drift, drift_windows, plot_energy_error, plot_work_precision
 from .surface import level_surface
+from .vorticity import vorticity_field
 
 energy_error = plot_energy_error
 """Alias of ``plot_energy_error``, the earlier name (``diagnostics.energy_error`` is the array it draws)."""
@@ -42,15 +54,22 @@ work_precision = plot_work_precision
 __all__ = [
     "casimir",
     "continuation_figure",
+    "coordinate_series",
     "draw",
     "drift",
     "drift_windows",
     "energy_error",
+    "energy_ulps",
+    "entropy",
+    "entropy_gap",
     "invariants",
     "level_surface",
+    "phase_projection",
     "plot_energy_error",
     "plot_work_precision",
+    "series_grid",
     "style",
     "trajectories",
+    "vorticity_field",
     "work_precision",
 ]

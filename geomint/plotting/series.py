@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .. import diagnostics as _diagnostics
+from ..results import solution as _solution
 from ._common import as_list, line_labels, new_axis, style
 
 if TYPE_CHECKING:
@@ -75,26 +76,32 @@ def casimir(
     labels: Sequence[str] | None = None,
     legend: bool = True,
 ) -> Axes:
-    """``S(t)``, one line per solution; every saved step where S rose beyond round-off is marked."""
+    """``S(t)``, one line per solution; every saved step where S moved against its direction beyond round-off
+    is marked: a rise where S never rises (the Fish form), a fall where it never falls (a GENERIC entropy,
+    ``sol.S_direction`` +1)."""
     solutions = as_list(solutions)
     ax = new_axis(ax)
-    rises = 0
+    against = 0
+    generic = all(getattr(sol, "S_direction", -1.0) > 0 for sol in solutions)
     for i, (sol, name) in enumerate(zip(solutions, line_labels(solutions, labels))):
         line = style(i, len(solutions))
         ax.plot(sol.t, sol.S, color=line["color"], linestyle=line["linestyle"], linewidth=1.2, label=name)
-        up = _diagnostics.S_rises(sol) + 1
-        rises += len(up)
+        moves = _solution.S_falls(sol) if getattr(sol, "S_direction", -1.0) > 0 else _diagnostics.S_rises(sol)
+        up = moves + 1
+        against += len(up)
         ax.scatter(sol.t[up], sol.S[up], color="red", marker="x", s=18, zorder=4)
-    if rises:
-        ax.scatter([], [], color="red", marker="x", s=18, label="S rose (beyond 16 ulps)")
+    word = ("fall", "falls", "fell") if generic else ("rise", "rises", "rose")
+    if against:
+        ax.scatter([], [], color="red", marker="x", s=18, label=f"S {word[2]} (beyond 16 ulps)")
+    what = "entropy S" if generic else "Casimir S"
     return _finish(
         ax,
         "t",
         "S",
-        f"Casimir S: {rises} {'rise' if rises == 1 else 'rises'} beyond round-off",
-        legend and "upper right",
+        f"{what}: {against} {word[0] if against == 1 else word[1]} beyond round-off",
+        legend and ("lower right" if generic else "upper right"),
         len(solutions),
-        "red" if rises else "black",
+        "red" if against else "black",
     )
 
 

@@ -4,11 +4,12 @@ validates each field and names the key, the rule and the nearest known name when
 import inspect
 import math
 import re
+from typing import NoReturn
 
 import numpy as np
 
 from .. import _validate
-from ..systems import CATALOGUE
+from ..systems import CATALOGUE, RN_CATALOGUE
 
 
 class SceneError(ValueError):
@@ -17,7 +18,8 @@ class SceneError(ValueError):
     def __init__(self, source: str, key: str | None, problem: str) -> None:
         self.source, self.key, self.problem = source, key, problem
         where = f"{source}: " if source else ""
-        super().__init__(f"{where}`{key}`: {problem}" if key else f"{where}{problem}")
+        shown = key if key is None or len(key) <= 120 else f"{key[:100]}... ({len(key)} characters)"
+        super().__init__(f"{where}`{shown}`: {problem}" if key else f"{where}{problem}")
 
 
 # section -> key in the file -> Scene field; "" is the top level
@@ -30,20 +32,44 @@ _LAYOUT = {
         "S": "expressions",
         "J": "expressions",
         "P": "expressions",
+        # in R^n: a catalogue system (its arguments are further keys of [system]) or formulas
+        "catalogue": "system",
+        "variables": "expressions",
+        "sizes": "expressions",
+        "define": "expressions",
+        "metric": "expressions",
+        "E": "expressions",
+        "L": "expressions",
+        "M": "expressions",
     },
     "effects": {"hamiltonian": "hamiltonian", "eps": "eps", "projection": "projection"},
-    "initial": {"points": "points", "level_set": "level_set"},
+    "initial": {"points": "points", "level_set": "level_set", "state": "state", "random": "random", "fill": "fill"},
     "integrator": {"method": "integrator", "h": "h", "duration": "duration"},
-    "output": {"record": "record", "every": "every", "figures": "figures", "view": "view", "sections": "sections"},
+    "output": {
+        "record": "record",
+        "every": "every",
+        "figures": "figures",
+        "view": "view",
+        "sections": "sections",
+        "series": "series",
+        "phase": "phase",
+        "snapshots": "snapshots",
+        "limit": "limit",
+    },
 }
 _KEY_OF = {
     name: (f"{section}.{key}" if section else key) for section, keys in _LAYOUT.items() for key, name in keys.items()
 }
 _KEY_OF["expressions"] = "system"
+_KEY_OF["system"] = "system.name"
+_KEY_OF["arguments"] = "system"
 _LEVEL_SET_KEYS = ("H0", "n", "center")
 #: the most initial states a level set may ask for
 MAX_TRAJECTORIES = 10**6
 _EXPRESSION_KEYS = ("H", "S", "J", "P")
+#: the keys of a system in R^n written as formulas (``MetriplecticSystemN.from_expressions``, Fish form, and
+#: ``GenericSystem.from_expressions``, GENERIC form, take them as they are)
+_EXPRESSION_KEYS_N = ("variables", "sizes", "define", "H", "S", "P", "metric", "E", "L", "M")
 _LABEL = re.compile(r"[A-Za-z][A-Za-z0-9_.-]{0,99}")
 
 
@@ -51,7 +77,7 @@ class _Checker:
     def __init__(self, source):
         self.source = source
 
-    def fail(self, name, problem):
+    def fail(self, name, problem) -> NoReturn:
         raise SceneError(self.source, _KEY_OF.get(name, name), problem)
 
     def real(self, name, value, minimum=None, positive=False):
@@ -201,6 +227,91 @@ class _Checker:
             self.fail("every", f'must be an integer >= 1 or "final"; got {_describe(value)}.')
         return int(value)
 
+    def catalogue(self, value):
+        """A system of the R^3 catalogue (``[system] name``), naming the R^n catalogue too."""
+        self.string("system", value)
+        if value not in CATALOGUE:
+            self.fail(
+                "system",
+                f"unknown catalogue system {value!r}; known: {_listing(CATALOGUE)}; in R^n (`catalogue = ...`): "
+                f"{_listing(RN_CATALOGUE)}.",
+            )
+        return value
+
+    def rn_catalogue(self, value):
+        """A system of the R^n catalogue (``[system] catalogue``)."""
+        self.string("system.catalogue", value)
+        if value not in RN_CATALOGUE:
+            if value in CATALOGUE:
+                self.fail(
+                    "system.catalogue",
+                    f"{value!r} is a system in R^3: name it with `name = {value!r}`, its arguments in "
+                    "`parameters = { ... }`.",
+                )
+            self.fail(
+                "system.catalogue",
+                f"unknown R^n catalogue system {_short(value)}; known: {_listing(RN_CATALOGUE)}"
+                f"{_validate.did_you_mean(value, RN_CATALOGUE)}",
+            )
+        return value
+
+    def arguments(self, system, value):
+        """The arguments of R^n catalogue system ``system``: known names (the nearest named), numbers or strings;
+        the constructor checks their values."""
+        if not isinstance(value, dict):
+            self.fail("system", f"the arguments of {system!r} must be a table; got {_describe(value)}.")
+        known = [k for k in inspect.signature(RN_CATALOGUE[system]).parameters if k != "eps"]
+        out = {}
+        for key, item in value.items():
+            if key == "eps":
+                self.fail(f"system.{key}", "set the dissipation as `effects.eps`.")
+            if key not in known:
+                self.fail(
+                    f"system.{key}",
+                    f"unknown argument of {system!r}; it takes {_listing(known) or 'none'}"
+                    f"{_validate.did_you_mean(key, known)}",
+                )
+            if isinstance(item, str):
+                out[key] = item
+            elif isinstance(item, (int, np.integer)) and not isinstance(item, (bool, np.bool_)):
+                self.real(f"system.{key}", item)
+                out[key] = int(item)
+            else:
+                out[key] = self.real(f"system.{key}", item)
+        return out
+
+    def coordinate_names(self, key, value, count=None):
+        """A list of coordinate names (checked against the system's variables when it is built)."""
+        if isinstance(value, str) or not isinstance(value, (list, tuple)) or not value:
+            self.fail(key, f"must be a non-empty list of coordinate names; got {_describe(value)}.")
+        for item in value:
+            self.string(key, item)
+        return tuple(value)
+
+    def times(self, key, value, duration):
+        if isinstance(value, (str, dict)) or not isinstance(value, (list, tuple)) or not value:
+            self.fail(key, f"must be a non-empty list of times; got {_describe(value)}.")
+        times = tuple(self.real(key, v) for v in value)
+        for t in times:
+            if not 0.0 <= t <= duration:
+                self.fail(key, f"the times must lie in the run, [0, duration = {duration:g}]; got {t:g}.")
+        return times
+
+    def limit(self, value):
+        if value is None or value in ("known", "tail"):
+            return value
+        if isinstance(value, (list, tuple)):
+            if not value:
+                self.fail("output.limit", 'must name S_inf: "known", "tail", a number or one per trajectory.')
+            return tuple(self.real("output.limit", v) for v in value)
+        if isinstance(value, str):
+            self.fail(
+                "output.limit",
+                f'must be "known" (the closed form), "tail" (estimated from the run), a number or one per '
+                f"trajectory; got {_short(value)}{_validate.did_you_mean(value, ['known', 'tail'])}",
+            )
+        return self.real("output.limit", value)
+
     def parameters(self, system, value):
         if not isinstance(value, dict):
             self.fail("parameters", f"must be a table of parameter = value; got {_describe(value)}.")
@@ -262,6 +373,11 @@ def _unknown(key, known, takes, sort=True, listed=True):
     names = [str(k) for k in known]
     listing = (_listing(names) if sort else ", ".join(names)) if listed else ""
     return f"unknown key; {takes}{' ' + listing if listing else ''}{_validate.did_you_mean(key, names)}"
+
+
+def _short(text, most=60):
+    """``repr(text)`` of at most ``most`` characters (a name quoted in a one-line error)."""
+    return repr(text) if len(text) <= most else repr(text[:most]) + f"... ({len(text)} characters)"
 
 
 def _describe(value):

@@ -27,6 +27,7 @@ from ..results.solution import AccuracyWarning
 from ..run.ensemble import solve_ensemble
 from ..run.solve import solve
 from ..run.status import Status
+from . import relaxation as _relaxation
 from .schema import OBSERVABLES, Scene
 
 if TYPE_CHECKING:
@@ -80,6 +81,49 @@ class SceneResult:
     def success(self) -> bool:
         return all(sol.success for sol in self.solutions)
 
+    def limits(self) -> list[_relaxation.Limit]:
+        """S_inf of each trajectory as ``output.limit`` says: given, the catalogue's closed form from the
+        trajectory's start (``"known"``), or estimated from its tail (``"tail"``, and where the scene says
+        nothing and knows no closed form)."""
+        limit = self.scene.limit
+        out = []
+        for i, sol in enumerate(self.solutions):
+            if isinstance(limit, (int, float)):
+                out.append(_relaxation.Limit(float(limit), "given", "S_inf given by the scene"))
+            elif isinstance(limit, tuple):
+                out.append(_relaxation.Limit(float(limit[i]), "given", "S_inf given by the scene"))
+            elif limit == "known" and self.scene.known_limit is not None:
+                known = self.scene.known_limit
+                value = known.value(self.system, sol.x[0], self.scene.arguments or {})
+                out.append(_relaxation.Limit(float(value), "known", known.why))
+            else:
+                out.append(_relaxation.tail_limit(sol.t, sol.S))
+        return out
+
+    def relaxation(self) -> list[dict[str, Any]]:
+        """Per trajectory: S_inf and where it comes from, the final gap ``|S - S_inf|``, the fitted rate of
+        the approach (``geomint.scene.relaxation.decay_rate``; None without a clean exponential tail) and,
+        for 2-D Euler, the final state's distance from the span of the lowest shell ``|k|^2 = 1``."""
+        direction = float(getattr(self.system, "direction", -1.0))
+        out = []
+        for sol, limit in zip(self.solutions, self.limits()):
+            rate = _relaxation.decay_rate(sol.t, sol.S, limit.value, direction)
+            entry = {
+                "S_limit": limit.value,
+                "S_limit_from": limit.source,
+                "S_limit_why": limit.why,
+                "S_gap_final": float(abs(sol.S[-1] - limit.value)),
+                "decay_rate": None if rate is None else rate.rate,
+                "decay_rate_fitted_over": None if rate is None else [rate.t_from, rate.t_to],
+            }
+            expected = self.scene.expected_rate(float(sol.H[0]))
+            if expected is not None:
+                entry["expected_rate"], entry["expected_rate_why"] = expected
+            if self.scene.is_euler:
+                entry["lowest_shell_distance"] = _relaxation.lowest_shell_distance(sol.x_final)
+            out.append(entry)
+        return out
+
     def summary(self) -> dict[str, Any]:
         """A JSON-ready dict: invariant errors, S rises, work, wall time, versions, the scene."""
         ulp = float(np.finfo(np.float64).eps)  # machine epsilon; `eps` is the dissipation parameter
@@ -105,6 +149,10 @@ class SceneResult:
                     "wall_s": wall,
                 }
             )
+        if self.scene.in_rn:
+            for entry, sol, more in zip(trajectories, self.solutions, self.relaxation()):
+                entry["S_against_direction"] = sol.S_against_direction
+                entry.update(more)
         totals = {
             "partial": self.partial,
             "trajectories": len(trajectories),
@@ -114,6 +162,12 @@ class SceneResult:
             **{k: sum(t[k] for t in trajectories) for k in ("n_steps", "n_newton", "nfev", "wall_s")},
             "rows_saved_per_trajectory": int(self.records["rows"].max()),
         }
+        if self.scene.in_rn:
+            totals["S_against_direction"] = sum(t["S_against_direction"] for t in trajectories)
+            totals["S_direction"] = float(getattr(self.system, "direction", -1.0))
+            totals["form"] = "GENERIC" if totals["S_direction"] > 0 else "Fish"
+            totals["dim"] = int(self.system.dim)
+            totals["variables"] = list(self.system.variables)
         return {
             "scene": self.scene.to_dict(),
             "system": repr(self.system),
@@ -123,7 +177,15 @@ class SceneResult:
             "versions": versions(),
             "notes": "energy_error = max |H - H0|/|H0| and S_rises (S up by more than 16 ulps) over the saved "
             "states; energy_error_in_ulp is it in ulp (units of machine epsilon, 2**-52); "
-            "scene.effects.eps is the dissipation parameter.",
+            "scene.effects.eps is the dissipation parameter."
+            + (
+                " In R^n, S_against_direction counts the saved steps where S moved against its direction (rose "
+                "in the Fish form, fell in GENERIC form, where S_rises are the normal direction); S_limit is S_inf "
+                "(S_limit_from: given, known in closed form, or tail: estimated), decay_rate the fitted rate of "
+                "|S - S_inf| ~ exp(-rate t)."
+                if self.scene.in_rn
+                else ""
+            ),
         }
 
 

@@ -1,6 +1,6 @@
 """Scene files in both directions: reading a file's text into its sections (``tomllib``: nothing in it is
 evaluated as Python), writing sections back as TOML, and finding a scene by path or by the name of a bundled
-one (``geomint/scenes/*.toml``, package data)."""
+one (``geomint/scenes/*.toml`` in R^3 and ``geomint/scenes/rn/*.toml`` in R^n, package data)."""
 
 from __future__ import annotations
 
@@ -77,12 +77,19 @@ def plain(value: Any) -> Any:
     return value
 
 
-def bundled_scenes() -> dict[str, Traversable]:
-    """Names of the scenes shipped with geomint -> their paths."""
+def bundled_scenes(rn: bool = False) -> dict[str, Traversable]:
+    """Names of the scenes shipped with geomint -> their paths: the paper's examples in R^3, or with ``rn=True``
+    the scenes of systems in R^n (``geomint/scenes/rn``)."""
     from importlib import resources
 
     folder = resources.files("geomint") / "scenes"
-    return {p.name[:-5]: p for p in sorted(folder.iterdir(), key=lambda p: p.name) if p.name.endswith(".toml")}
+    if rn:
+        folder = folder / "rn"
+    return {
+        p.name[:-5]: p
+        for p in sorted(folder.iterdir(), key=lambda p: p.name)
+        if p.name.endswith(".toml") and p.is_file()
+    }
 
 
 def scene_file(scene: str) -> Path | Traversable:
@@ -92,8 +99,14 @@ def scene_file(scene: str) -> Path | Traversable:
         return path
     if path.is_dir():
         raise SceneError(scene, None, "is a folder; give a scene file (.toml) or the name of a bundled scene.")
-    bundled = bundled_scenes()
+    bundled, bundled_n = bundled_scenes(), bundled_scenes(rn=True)
     stem = scene[:-5] if scene.endswith(".toml") else scene
     if stem in bundled:
         return bundled[stem]
-    raise SceneError(scene, None, f"no such scene file, nor a bundled scene; bundled: {_listing(bundled)}.")
+    if stem in bundled_n:
+        return bundled_n[stem]
+    raise SceneError(
+        scene,
+        None,
+        f"no such scene file, nor a bundled scene; bundled: {_listing(bundled)}; in R^n: {_listing(bundled_n)}.",
+    )
