@@ -106,7 +106,9 @@ def workspace_size(step_data: tuple, n: int, rn: bool) -> int:
     if not rn:
         return getattr(step_data, "slots", 1) * _layout.WORK
     slots = step_data.slots if isinstance(step_data, _layout.ComposedStep) else 1
-    return int(slots * _step_n.work_size(n) + _control_n.CONTROL_VECTORS * n)
+    # the kernels' jitted function run as the Python it is written in: no compilation in a process that asks
+    size = getattr(_step_n.work_size, "py_func", _step_n.work_size)
+    return int(slots * size(n) + _control_n.CONTROL_VECTORS * n)
 
 
 def run_chunk(
