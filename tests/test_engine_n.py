@@ -7,7 +7,7 @@ import warnings
 import numpy as np
 import pytest
 import scipy.optimize
-from hypothesis import given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 import geomint
@@ -47,6 +47,7 @@ def assert_exact_steps(system, sol, h_ulps=16.0, s_ulps=4.0):
 
 
 @settings(max_examples=30)
+@example(n=2, seed=643, eps=2.0, h=0.0625, radius=2.0, which=0)  # Newton fails at step 1, |h| rate = 1.9
 @given(
     n=st.sampled_from([2, 4, 16, 64]),
     seed=st.integers(0, 2**16),
@@ -61,6 +62,9 @@ def test_every_step_is_exact_on_random_fish_systems(n, seed, eps, h, radius, whi
     x0 *= radius / np.linalg.norm(x0)
     method = (*DISCRETE_GRADIENTS, geomint.SymmetrizedItohAbe())[which if which < 3 or n <= 5 else 0]
     sol = geomint.solve(system, x0, (0.0, 20 * h), h=h, method=method)
+    if not sol.success:  # a reported Newton failure, only at a step beyond the time scale (docs/engine_rn.md)
+        assert sol.status == geomint.Status.NEWTON_FAILED and sol.step_ratio > 1.0, (sol.message, sol.step_ratio)
+        assume(False)
     assert sol.x.shape == (21, n)
     assert_exact_steps(system, sol)
 
