@@ -562,6 +562,30 @@ class GenericSystem(MetriplecticSystemN):
     -----
     ``E(x)`` is ``H(x)``, ``L(x)`` is ``P(x)`` and ``M(x)`` is ``D(x)``.
     Conserved quantities besides E are not declared (yet).
+
+    Examples
+    --------
+    A damped oscillator in a heat bath (x = (q, p, s), temperature ``T = exp(s)``):
+
+    >>> import numba, numpy as np, geomint
+    >>> @numba.njit
+    ... def E(x, p): return 0.5 * (x[0] ** 2 + x[1] ** 2) + np.exp(x[2])
+    >>> @numba.njit
+    ... def grad_E(x, p): return np.array([x[0], x[1], np.exp(x[2])])
+    >>> @numba.njit
+    ... def S(x, p): return x[2]
+    >>> @numba.njit
+    ... def grad_S(x, p): return np.array([0.0, 0.0, 1.0])
+    >>> @numba.njit
+    ... def L(x, p): return np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    >>> @numba.njit
+    ... def M(x, p):
+    ...     w = np.array([0.0, 1.0, -x[1] / np.exp(x[2])])
+    ...     return p[0] * np.exp(x[2]) * np.outer(w, w)
+    >>> bath = geomint.GenericSystem(E=E, grad_E=grad_E, S=S, grad_S=grad_S, L=L, M=M, params=[0.5], dim=3)
+    >>> sol = geomint.solve(bath, [1.0, 0.0, 0.0], (0.0, 20.0), h=0.05)
+    >>> bool(sol.energy_error < 1e-14), sol.S_falls, bool(sol.S[-1] > sol.S[0])
+    (True, 0, True)
     """
 
     direction = +1.0
