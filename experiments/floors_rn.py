@@ -912,6 +912,27 @@ class Floor:
         H0, _, S_x, _ = energy(self.kind, self.data, x)
         return field_many(self.kind, self.data, x, y, H0, S_x, times)
 
+    def residual_ulps(self, x0, x, y, h):
+        """How far the step from x to y is from the root of this scheme, in ulps of ``|y|_inf``."""
+        x0, x, y = (np.ascontiguousarray(v, dtype=np.float64) for v in (x0, x, y))
+        return residual_ulps(self.kind, self.data, x0, x, y, h)
+
+
+@jit
+def residual_ulps(kind, data, x0, x, y, h):
+    """The floor's scheme at a step from x to y: ``max_i |(y - x) - h F(x, y)|_i`` in ulps of ``|y|_inf`` (F with
+    H anchored to H(x0)): how far y is from the step's root (a few ulps for a step solved to round-off)."""
+    n = x.shape[0]
+    F, scratch = np.empty(n), np.empty((6, n))
+    H0 = _energy(kind, data, x0)[0]
+    S_x = _energy(kind, data, x)[2]
+    _field(kind, data, x, y, H0, S_x, F, scratch)
+    worst, size = 0.0, 0.0
+    for i in range(n):
+        worst = max(worst, abs((y[i] - x[i]) - h * F[i]))
+        size = max(size, abs(y[i]))
+    return worst / (EPS * size)
+
 
 @jit
 def energy(kind, data, y):

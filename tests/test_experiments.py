@@ -172,14 +172,16 @@ FLOOR_CASES = {
 def test_hand_written_floors_are_exact_and_take_geomints_step(case):
     """Each floor of experiments/floors_rn.py is exact at every step of a short run (the library's acceptance: H
     within 4 ulps of its terms of H(x0), S not against its direction by more than 2 ulps; converged at every step)
-    and lands where geomint's Gonzalez lands: the same scheme, or it is not a floor of it."""
+    and lands where geomint's Gonzalez lands: the same scheme, or it is not a floor of it (a floor with another
+    discrete gradient, Gonzalez's correction left out, lands 1e-5 to 1e-3 away; the solvers' own stopping points
+    are 1e-11 apart: geomint's fixed point stops short of the root on the pendula, docs/engine_rn_speed.md)."""
     system, x0, h, steps = FLOOR_CASES[case]()
     run = floor_for(system).run(x0, h, steps)
     assert run.failures == 0 and run.unconverged == 0, run
     assert run.worst_H <= ACCEPT_ULPS and run.worst_S <= ACCEPT_S_ULPS, run
     assert run.iterations >= steps and run.refreshes >= 1
     solution = geomint.solve(system, x0, (0.0, steps * h), h, method=geomint.Gonzalez(), save_every=None)
-    assert np.max(np.abs(run.x - solution.x_final)) < 1e-10
+    assert np.max(np.abs(run.x - solution.x_final)) < 1e-10 * max(1.0, np.max(np.abs(solution.x_final)))
 
 
 def test_floor_for_refuses_what_it_does_not_write():
