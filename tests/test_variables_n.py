@@ -1,39 +1,12 @@
 """The names of the coordinates of a system (``system.variables``): defaults, validation naming ``variables``, and
 the catalogue's names."""
 
-import numba
 import numpy as np
 import pytest
+from test_systems_n import _H, _P, _S, _grad_H, _grad_S  # the small Fish system in R^4
 
 import geomint
 from geomint import systems
-
-
-@numba.njit
-def _H(x, p):
-    return 0.5 * np.sum(x * x)
-
-
-@numba.njit
-def _grad_H(x, p):
-    return x.copy()
-
-
-@numba.njit
-def _S(x, p):
-    return 0.5 * x[3] * x[3]
-
-
-@numba.njit
-def _grad_S(x, p):
-    return np.array([0.0, 0.0, 0.0, x[3]])
-
-
-@numba.njit
-def _P(x, p):
-    out = np.zeros((4, 4))
-    out[0, 1], out[1, 0] = 1.0, -1.0
-    return out
 
 
 def _system(**kwargs):
