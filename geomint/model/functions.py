@@ -18,7 +18,6 @@ from typing import TYPE_CHECKING, Any, Callable
 import numba
 import numpy as np
 from numba.core.dispatcher import Dispatcher
-from numba.core.types.function_type import CompileResultWAP
 
 from .._cache import CACHE
 from .checks import SAMPLES
@@ -27,9 +26,9 @@ if TYPE_CHECKING:
     import numpy.typing as npt
 
 _VECTOR = numba.types.float64[::1]
-_SIGNATURE = (_VECTOR, _VECTOR)
+SIGNATURE = (_VECTOR, _VECTOR)
 #: an operator given as an action: ``(x, v, params) -> P(x) v``
-_ACTION_SIGNATURE = (_VECTOR, _VECTOR, _VECTOR)
+ACTION_SIGNATURE = (_VECTOR, _VECTOR, _VECTOR)
 _SCALAR_TYPES = (numba.types.float64,)
 _VECTOR_FORMS = {
     numba.types.UniTuple(numba.types.float64, 3): "tuple",
@@ -106,8 +105,8 @@ def _how_to_jit_action(name):
     )
 
 
-def _compiled_return_type(name, fn, dim=None, signature=_SIGNATURE):
-    action = signature is _ACTION_SIGNATURE
+def _compiled_return_type(name, fn, dim=None, signature=SIGNATURE):
+    action = signature is ACTION_SIGNATURE
     how = _how_to_jit_action(name) if action else _how_to_jit(name, dim)
     arguments = "(x, v, params)" if action else "(x, params)"
     if numba.config.DISABLE_JIT:  # pyright: ignore[reportPrivateImportUsage, reportAttributeAccessIssue]
@@ -124,17 +123,6 @@ def _compiled_return_type(name, fn, dim=None, signature=_SIGNATURE):
             f"{type(exc).__name__}: {str(exc).splitlines()[0]}. {how}"
         ) from exc
     return fn.overloads[signature].signature.return_type
-
-
-def first_class(fn: Any, action: bool = False) -> Any:
-    """A jitted user function as a first-class function object for the kernels (of ``(x, v, params)`` where
-    ``action``, else of ``(x, params)``)."""
-    if numba.config.DISABLE_JIT:  # pyright: ignore[reportPrivateImportUsage, reportAttributeAccessIssue]
-        return fn
-    signature = _ACTION_SIGNATURE if action else _SIGNATURE
-    if signature not in fn.overloads:  # a system unpickled in another process (a Dask worker)
-        fn.compile(signature)
-    return CompileResultWAP(fn.overloads[signature])
 
 
 def scalar_function(name: str, fn: Any, dim: int | None = None) -> Any:
@@ -186,7 +174,7 @@ def matrix_function(name: str, fn: Any, dim: int | None = None) -> Any:
 def action_function(name: str, fn: Any, dim: int) -> Any:
     """``fn`` if it compiles for ``(x, v, params)`` and returns a contiguous float64 array (``P(x) v`` in R^dim;
     its length is probed by ``check_returned_shapes``), else a ``TypeError`` saying how to write it."""
-    rtype = _compiled_return_type(name, fn, dim, _ACTION_SIGNATURE)
+    rtype = _compiled_return_type(name, fn, dim, ACTION_SIGNATURE)
     if rtype is not None and rtype != _VECTOR:
         raise TypeError(
             f"`{name}` must return a contiguous float64 array of length n = {dim}; it returns {rtype}. "

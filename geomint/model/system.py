@@ -25,7 +25,8 @@ from .. import _user_errors, _validate
 from .._kernels import field as _field
 from .._kernels.layout import Model
 from .checks import check_exact_flows, check_structure, declared_exact_flows
-from .functions import ModelFunctions, check_shapes, first_class, matrix_function, scalar_function, vector_function
+from .functions import ModelFunctions, check_shapes, matrix_function, scalar_function, vector_function
+from .handles import kernel_handle
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Mapping, Sequence
@@ -201,7 +202,7 @@ class MetriplecticSystem:
         """
         if "_model" not in self.__dict__:
             f = self.functions
-            handles = tuple(first_class(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S, f.poisson))
+            handles = tuple(kernel_handle(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S, f.poisson))
             self._model = Model(*handles, self._params, self._origin())  # pyright: ignore[reportCallIssue]  # 5 handles
         return self._model
 

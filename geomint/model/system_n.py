@@ -37,12 +37,12 @@ from .functions import (
     action_function,
     array_function,
     check_returned_shapes,
-    first_class,
     matrix_function,
     no_action,
     no_metric,
     scalar_function,
 )
+from .handles import kernel_handle
 from .system import MetriplecticSystem, _check_eps
 
 if TYPE_CHECKING:
@@ -258,9 +258,11 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         R^n has one numba type."""
         if "_model" not in self.__dict__:
             f = self.functions
-            matrices = tuple(first_class(no_metric if fn is None else fn) for fn in (f.P, f.M))
-            actions = tuple(first_class(no_action if fn is None else fn, action=True) for fn in (f.P_apply, f.M_apply))
-            handles = tuple(first_class(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S))
+            matrices = tuple(kernel_handle(no_metric if fn is None else fn) for fn in (f.P, f.M))
+            actions = tuple(
+                kernel_handle(no_action if fn is None else fn, action=True) for fn in (f.P_apply, f.M_apply)
+            )
+            handles = tuple(kernel_handle(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S))
             fields = (*handles, *matrices, self._params, self.metric, self.direction, self._origin(), *actions)
             self._model = ModelN(*fields, self.actions)  # pyright: ignore[reportCallIssue]  # 12 fields and actions
         return self._model

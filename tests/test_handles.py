@@ -1,0 +1,159 @@
+"""How user functions reach the kernels (``geomint.model.handles``): inlined and cached where they can be found
+again by name, first-class elsewhere, with the same results either way."""
+
+import os
+import pickle
+import subprocess
+import sys
+import textwrap
+import types
+
+import numba
+import numpy as np
+import pytest
+from numba.core.types.function_type import CompileResultWAP
+
+import geomint
+from geomint.model import handles
+from geomint.systems import relaxing_rigid_body
+
+
+@numba.njit
+def _H(x, p):
+    return 0.5 * (p[0] * x[0] ** 2 + p[1] * x[1] ** 2 + p[2] * x[2] ** 2)
+
+
+@numba.njit
+def _grad_H(x, p):
+    return (p[0] * x[0], p[1] * x[1], p[2] * x[2])
+
+
+@numba.njit
+def _S(x, p):
+    return 0.5 * (x[0] ** 2 + x[1] ** 2 + x[2] ** 2)
+
+
+@numba.njit
+def _grad_S(x, p):
+    return (x[0], x[1], x[2])
+
+
+@numba.njit
+def _J(x, p):
+    return (x[0], x[1], x[2])
+
+
+def _body(**functions):
+    arguments = dict(H=_H, grad_H=_grad_H, S=_S, grad_S=_grad_S, J=_J, params=[0.5, 1.0, 1.5], eps=0.1)
+    return geomint.MetriplecticSystem(**{**arguments, **functions})
+
+
+X0 = np.array([np.cos(1.1), 0.0, np.sin(1.1)])
+
+
+def test_module_level_functions_are_inlined_and_local_ones_first_class():
+    @numba.njit
+    def local_S(x, p):
+        return 0.5 * (x[0] ** 2 + x[1] ** 2 + x[2] ** 2)
+
+    model = _body(S=local_S).model
+    assert isinstance(model.H, handles.InlinedHandle) and model.H.dispatcher is _H
+    assert model.H.key[:2] == (__name__, "_H")
+    assert isinstance(model.S, CompileResultWAP)  # made inside a function: no stable name to cache it by
+    assert handles.inline_key(local_S) is None
+    assert handles.inline_key(lambda x, p: 0.0) is None
+
+
+def test_the_key_follows_the_source_file_and_the_compile_options():
+    key = handles.inline_key(_H)
+    assert key is not None and key == handles.inline_key(_H)
+    copy = types.FunctionType(_H.py_func.__code__, globals(), "_H_fast")
+    copy.__qualname__ = "_H_fast"
+    globals()["_H_fast"] = fast = numba.njit(fastmath=True)(copy)  # found again under its name
+    try:
+        other = handles.inline_key(fast)
+        assert other is not None and other[:3] == (__name__, "_H_fast", key[2]) and other[3] != key[3]
+    finally:
+        del globals()["_H_fast"]
+
+
+def test_GEOMINT_INLINE_0_hands_every_function_over_first_class(monkeypatch):
+    monkeypatch.setenv("GEOMINT_INLINE", "0")
+    model = _body().model
+    assert all(isinstance(fn, CompileResultWAP) for fn in (model.H, model.grad_H, model.S, model.grad_S, model.J))
+
+
+@pytest.mark.parametrize("method", ["gonzalez", "rk4", "yoshida4"])
+def test_inlined_and_first_class_kernels_give_the_same_bits(method, monkeypatch):
+    inlined = geomint.solve(_body(), X0, (0.0, 5.0), 0.01, method=method)
+    monkeypatch.setenv("GEOMINT_INLINE", "0")
+    first_class = geomint.solve(_body(), X0, (0.0, 5.0), 0.01, method=method)
+    np.testing.assert_array_equal(inlined.x, first_class.x)
+    np.testing.assert_array_equal(inlined.H, first_class.H)
+    np.testing.assert_array_equal(inlined.S, first_class.S)
+
+
+def test_a_key_unpickles_to_the_live_type_or_to_one_that_matches_nothing_and_keeps_its_key():
+    live = numba.typeof(relaxing_rigid_body().model.H)
+    assert isinstance(live, handles.Inlined)
+    assert pickle.loads(pickle.dumps(live)) is live
+    key = ("a_module_never_imported", "f", "0" * 16, "0" * 8)
+    away = handles._rebuild(key)
+    assert isinstance(away, handles.Unloaded) and away != live
+    assert pickle.loads(pickle.dumps(away)) == away  # an index rewritten elsewhere keeps the entry's key
+
+
+def test_a_handle_travels_to_another_process_as_its_function():
+    handle = relaxing_rigid_body().model.grad_H
+    again = pickle.loads(pickle.dumps(handle))
+    assert isinstance(again, handles.InlinedHandle) and again.key == handle.key
+    assert again(X0, np.array([0.5, 1.0, 1.5])) == handle(X0, np.array([0.5, 1.0, 1.5]))
+
+
+_USER_MODULE = """
+import numba, numpy as np
+
+@numba.njit
+def H(x, p):
+    return 0.5 * (0.5 * x[0] ** 2 + x[1] ** 2 + 1.5 * x[2] ** 2)
+
+@numba.njit
+def grad_H(x, p):
+    return (0.5 * x[0], x[1], 1.5 * x[2])
+
+@numba.njit
+def S(x, p):
+    return 0.5 * (x[0] ** 2 + x[1] ** 2 + x[2] ** 2)
+
+@numba.njit
+def grad_S(x, p):
+    return (x[0], x[1], x[2])
+
+@numba.njit
+def J(x, p):
+    return (x[0], x[1], x[2])
+"""
+
+_RUN = """
+import numpy as np, geomint, user
+from geomint._kernels import loop
+system = geomint.MetriplecticSystem(H=user.H, grad_H=user.grad_H, S=user.S, grad_S=user.grad_S, J=user.J, eps=0.1)
+geomint.solve(system, np.array([0.6, 0.0, 0.8]), (0.0, 1.0), 0.01, method="rk4")
+stats = loop.run.stats
+print(sum(stats.cache_hits.values()), sum(stats.cache_misses.values()))
+"""
+
+
+@pytest.mark.slow
+def test_a_second_process_loads_the_kernels_compiled_for_a_user_system(tmp_path):
+    (tmp_path / "user.py").write_text(textwrap.dedent(_USER_MODULE))
+    environment = {**os.environ, "GEOMINT_CACHE_DIR": str(tmp_path / "cache"), "PYTHONPATH": str(tmp_path)}
+
+    def run():
+        out = subprocess.run(
+            [sys.executable, "-c", _RUN], env=environment, cwd=tmp_path, capture_output=True, text=True, check=True
+        )
+        return tuple(int(v) for v in out.stdout.split()[-2:])
+
+    assert run() == (0, 1)  # compiled for this system
+    assert run() == (1, 0)  # loaded from disk
