@@ -33,8 +33,9 @@ def test_importing_geomint_loads_no_heavy_module():
 
 
 def test_every_public_name_resolves_in_a_fresh_process():
-    """Each name of ``__all__`` (and the layers ``integrators``, ``model``, ``results``, ``run``, ``scene``) is there, is listed by ``dir`` (tab completion), comes by
-    ``from geomint import *``, and is the object its layer defines."""
+    """Each name of ``__all__`` (and the layers ``integrators``, ``model``, ``results``, ``run``, ``scene``) is
+    there, is listed by ``dir`` (tab completion), comes by ``from geomint import *``, and is the object its layer
+    defines."""
     code = """
 import geomint
 names = sorted(set(geomint.__all__) | {"integrators", "model", "results", "run", "scene"})
