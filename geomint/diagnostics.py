@@ -16,7 +16,7 @@ scipy runs are measured the same way.
 
 Runs about runs (``reference_solution``, ``measured_order``, ``work_precision``, ``Curve``) are in
 ``geomint.studies``: they call ``solve``, which this module, a measure of results, does not
-(``geomint`` keeps them reachable here under their earlier names).
+(they stay reachable here under their earlier names).
 """
 
 from __future__ import annotations
@@ -222,3 +222,21 @@ def cost_to_reach(cost: npt.ArrayLike, error: npt.ArrayLike, target: float) -> f
         return float(cost[i])
     w = (np.log(target) - np.log(error[i - 1])) / (np.log(error[i]) - np.log(error[i - 1]))
     return float(np.exp(np.log(cost[i - 1]) + w * (np.log(cost[i]) - np.log(cost[i - 1]))))
+
+
+#: runs about runs that moved to ``geomint.studies``, reachable here under their earlier names
+_MOVED_TO_STUDIES = ("Curve", "measured_order", "reference_solution", "work_precision")
+
+
+def __getattr__(name: str) -> Any:
+    """An earlier name of a run about runs, now in ``geomint.studies`` (PEP 562).  studies is imported here by
+    name, on first use: it imports this module, and this module imports nothing that runs a solve."""
+    if name in _MOVED_TO_STUDIES:
+        import importlib
+
+        return getattr(importlib.import_module(f"{__name__.rpartition('.')[0]}.studies"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_MOVED_TO_STUDIES})

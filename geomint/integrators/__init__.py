@@ -4,6 +4,8 @@ Each integrator lowers itself (``lower(system)``) to step data for the shared
 engine in ``geomint._kernels``.  ``INTEGRATORS`` is the one table of short names.
 """
 
+from typing import Any
+
 from .base import Integrator, Traits
 from .composition import SCHEMES, Composition, KahanLi6, KahanLi8, Suzuki4, SuzukiUmeno8, Yoshida4, Yoshida6
 from .discrete_gradient import AVF, DampedGonzalez, DiscreteGradient, Gonzalez, ItohAbe, SymmetrizedItohAbe
@@ -71,8 +73,7 @@ __all__ = [
     "RK4",
     "RigidBodyFlow",
     "RotorSplitting",
-    # S_rise_statistics (now geomint.studies') is set on this module by geomint/__init__.py, which keeps the earlier
-    # public name reachable here without integrators/ importing studies (a circle): pyright cannot see it
+    # S_rise_statistics (now geomint.studies'), the earlier public name, is resolved by __getattr__ below
     "SCHEMES",
     "S_rise_statistics",  # pyright: ignore[reportUnsupportedDunderAll]
     "Strang",
@@ -84,3 +85,17 @@ __all__ = [
     "Yoshida6",
     "resolve",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """``S_rise_statistics``, which runs a method and moved to ``geomint.studies``, under its earlier name here
+    (PEP 562).  studies is imported by name, on first use: it imports this package, which imports no studies."""
+    if name == "S_rise_statistics":
+        import importlib
+
+        return importlib.import_module(f"{__name__.rpartition('.')[0]}.studies").S_rise_statistics
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), "S_rise_statistics"})

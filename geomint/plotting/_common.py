@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import sys
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
@@ -17,10 +19,16 @@ _LINESTYLES = ("-", "--", ":", "-.")
 
 
 def pyplot() -> ModuleType:
-    """``matplotlib.pyplot`` with the Agg backend, imported on first use (``import geomint`` does not load it)."""
-    import matplotlib
+    """``matplotlib.pyplot``, imported on first use (``import geomint`` does not load it).
 
-    matplotlib.use("Agg")
+    Before pyplot's first import the backend is set to Agg, non-interactive: figures are written to files, no
+    window opens and no GUI toolkit is imported.  A backend the user chose is kept: one named by ``MPLBACKEND``,
+    or the one of a pyplot already imported (a notebook's, a script's).
+    """
+    if "matplotlib.pyplot" not in sys.modules and not os.environ.get("MPLBACKEND"):
+        import matplotlib
+
+        matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     return plt

@@ -89,7 +89,8 @@ def casimir(
         moves = _solution.S_falls(sol) if getattr(sol, "S_direction", -1.0) > 0 else _diagnostics.S_rises(sol)
         up = moves + 1
         against += len(up)
-        ax.scatter(sol.t[up], sol.S[up], color="red", marker="x", s=18, zorder=4)
+        if len(up):  # (an empty scatter draws nothing, and would still be drawn: one per solution)
+            ax.scatter(sol.t[up], sol.S[up], color="red", marker="x", s=18, zorder=4)
     word = ("fall", "falls", "fell") if generic else ("rise", "rises", "rose")
     if against:
         ax.scatter([], [], color="red", marker="x", s=18, label=f"S {word[2]} (beyond 16 ulps)")
