@@ -293,8 +293,9 @@ def report_per_step(samples, args):
     lines += [
         "",
         f"The prange floor's check (first process): {failures} steps of {args.ensemble * args.ensemble_steps} "
-        f"missing the acceptance, worst |H - H(x0)| {worst_h:.2f} ulps of its terms, worst rise of S {worst_s:.2f} "
-        f"ulps; final states within {apart:.1e} of solve_ensemble's.",
+        f"missing the acceptance, worst |H - H(x0)| {worst_h:.2f} ulps of its terms, "
+        + (f"worst rise of S {worst_s:.2f} ulps" if worst_s > 0.0 else "S never rose")
+        + f"; final states within {apart:.1e} of solve_ensemble's.",
     ]
     return lines
 
