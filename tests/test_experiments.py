@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import geomint
-from experiments import drift, problems
+from experiments import drift, floors, problems
 from experiments.compiled import fixed_point_gonzalez
 from experiments.floors_rn import floor_for
 from experiments.methods import geomint_methods
@@ -188,3 +188,45 @@ def test_floor_for_refuses_what_it_does_not_write():
     assert floor_for(geomint.systems.euler_galerkin(5)) is None
     assert floor_for(geomint.systems.heat_bath_oscillator()) is None
     assert floor_for(geomint.systems.random_fish(4).with_effects(eps=0.0)) is None
+
+
+#: the relaxing rigid body of experiments/engine_speed.py: moving until t ~ 50, then at its pole
+BODY_X0 = np.array([np.cos(1.1), 0.0, np.sin(1.1)])
+
+
+def _body_final(steps, **options):
+    body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
+    return geomint.solve(body, BODY_X0, (0.0, 0.01 * steps), 0.01, save_every=None, **options).x_final
+
+
+@pytest.mark.parametrize("strict", [True, False])
+def test_exact_gonzalez_floor_is_exact_and_takes_geomints_step(strict):
+    """Over the moving phase and onto the pole every step keeps the library's acceptance, and the floor lands where
+    geomint's Gonzalez lands (the same scheme: not a cheaper one)."""
+    run = floors.gonzalez_exact(0.5, 1.0, 1.5, 0.1, BODY_X0, 0.01, 6000, strict=strict)
+    assert run.failures == 0
+    assert run.worst_H <= floors.ACCEPT_ULPS and run.worst_S <= floors.ACCEPT_S_ULPS
+    assert run.iterations >= 6000
+    assert np.max(np.abs(run.x - _body_final(6000))) < 1e-11
+    moving = floors.gonzalez_exact(0.5, 1.0, 1.5, 0.1, BODY_X0, 0.01, 1000, strict=strict)
+    assert np.max(np.abs(moving.x - _body_final(1000))) < 1e-13
+
+
+def test_exact_gonzalez_floor_check_fails_when_the_floor_is_not_the_step():
+    """The checks can fail: Newton stopped after one iteration misses the acceptance, and the floor with its eps
+    term dropped (a cheaper, conservative scheme, exact too) does not land where geomint does."""
+    stopped = floors.gonzalez_exact(0.5, 1.0, 1.5, 0.1, BODY_X0, 0.01, 2000, max_iter=1)
+    assert stopped.failures > 0
+    dropped = floors.gonzalez_exact(0.5, 1.0, 1.5, 0.0, BODY_X0, 0.01, 1000)
+    assert dropped.failures == 0
+    assert np.max(np.abs(dropped.x - _body_final(1000))) > 1e-3
+
+
+def test_exact_gonzalez_ensemble_floor_is_exact_and_matches_solve_ensemble():
+    starts = np.random.default_rng(3).normal(size=(6, 3))
+    starts /= np.linalg.norm(starts, axis=1)[:, None]
+    run = floors.gonzalez_exact_ensemble(0.5, 1.0, 1.5, 0.1, starts, 0.01, 300)
+    assert run.failures == 0 and run.x.shape == (6, 3)
+    body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
+    ensemble = geomint.solve_ensemble(body, starts, (0.0, 3.0), 0.01, method=geomint.Gonzalez(), save_every=None)
+    assert np.max(np.abs(run.x - ensemble.x[:, -1])) < 1e-13
