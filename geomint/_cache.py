@@ -92,6 +92,28 @@ class PackageCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheL
         return super().from_function(py_func, py_file)
 
 
+def _drop_stale_kernels(root: Path) -> None:
+    """Delete numba's on-disk cache of the kernels (``geomint/_kernels``) when any kernel source changed.
+
+    numba invalidates a cached kernel only when the file defining it changes,
+    not when a function it calls from another file does; kernels call across
+    files, so the whole folder's cache goes when any of its sources changes.
+    """
+    folder = PACKAGE / "_kernels"
+    digest = hashlib.sha256(b"".join(p.read_bytes() for p in sorted(folder.glob("*.py")))).hexdigest()
+    cache = kernel_folder(folder, root)
+    stamp = cache / "geomint-kernels.sha256"
+    try:
+        if stamp.exists() and stamp.read_text() == digest:
+            return
+        cache.mkdir(parents=True, exist_ok=True)
+        for path in (*cache.glob("*.nbi"), *cache.glob("*.nbc")):
+            path.unlink()
+        stamp.write_text(digest)
+    except OSError:  # a cache folder that cannot be cleaned is one numba cannot write either
+        pass
+
+
 def _register():
     if ROOT is None:
         warnings.warn(
@@ -105,6 +127,7 @@ def _register():
     locators = implementation._locator_classes
     if PackageCacheLocator not in locators:
         locators.insert(0, PackageCacheLocator)
+    _drop_stale_kernels(ROOT)
     return True
 
 

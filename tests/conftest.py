@@ -15,6 +15,19 @@ def pytest_addoption(parser):
     parser.addoption("--zoo-starts", default=None, help="random starts per zoo system and method (default 200)")
 
 
+@pytest.fixture(autouse=True)
+def _first_class_unless_marked_inlined(request, monkeypatch):
+    """The step loop's user functions first-class (``GEOMINT_INLINE=0``) except in tests marked ``inlined``.
+
+    Inlined, every system a test module defines gets kernels compiled for it (seconds each, ~25 minutes for the
+    suite on an empty cache); first-class, one compilation serves every system of a form.  The kernels' code is
+    the same either way: the modules marked ``inlined`` (the reference digests, user functions that raise,
+    ensembles against ``solve``, ``tests/test_handles.py``) show the inlined loop gives the same bits and the same
+    failures."""
+    if request.node.get_closest_marker("inlined") is None:
+        monkeypatch.setenv("GEOMINT_INLINE", "0")
+
+
 @pytest.fixture
 def sigint_raises():
     """SIGINT answered as Python answers it by default, for one test, even where the runner ignores it (a job

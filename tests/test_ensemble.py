@@ -11,6 +11,8 @@ from test_user_errors import _grad_S_raising_below_half, _oscillator
 
 import geomint
 
+pytestmark = pytest.mark.inlined  # the step loop as users run it (conftest.py)
+
 BODY = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
 STARTS = np.random.default_rng(5).normal(size=(23, 3))
 STARTS /= np.linalg.norm(STARTS, axis=1)[:, None]

@@ -17,6 +17,8 @@ import geomint
 from geomint.model import handles
 from geomint.systems import relaxing_rigid_body
 
+pytestmark = pytest.mark.inlined  # the step loop as users run it (conftest.py)
+
 
 @numba.njit
 def _H(x, p):
@@ -56,7 +58,7 @@ def test_module_level_functions_are_inlined_and_local_ones_first_class():
     def local_S(x, p):
         return 0.5 * (x[0] ** 2 + x[1] ** 2 + x[2] ** 2)
 
-    model = _body(S=local_S).model
+    model = _body(S=local_S).inlined_model
     assert isinstance(model.H, handles.InlinedHandle) and model.H.dispatcher is _H
     assert model.H.key[:2] == (__name__, "_H")
     assert isinstance(model.S, CompileResultWAP)  # made inside a function: no stable name to cache it by
@@ -77,9 +79,14 @@ def test_the_key_follows_the_source_file_and_the_compile_options():
         del globals()["_H_fast"]
 
 
+def test_the_model_of_every_other_kernel_is_first_class():
+    model = _body().model
+    assert all(isinstance(fn, CompileResultWAP) for fn in (model.H, model.grad_H, model.S, model.grad_S, model.J))
+
+
 def test_GEOMINT_INLINE_0_hands_every_function_over_first_class(monkeypatch):
     monkeypatch.setenv("GEOMINT_INLINE", "0")
-    model = _body().model
+    model = _body().inlined_model
     assert all(isinstance(fn, CompileResultWAP) for fn in (model.H, model.grad_H, model.S, model.grad_S, model.J))
 
 
@@ -94,7 +101,7 @@ def test_inlined_and_first_class_kernels_give_the_same_bits(method, monkeypatch)
 
 
 def test_a_key_unpickles_to_the_live_type_or_to_one_that_matches_nothing_and_keeps_its_key():
-    live = numba.typeof(relaxing_rigid_body().model.H)
+    live = numba.typeof(relaxing_rigid_body().inlined_model.H)
     assert isinstance(live, handles.Inlined)
     assert pickle.loads(pickle.dumps(live)) is live
     key = ("a_module_never_imported", "f", "0" * 16, "0" * 8)
@@ -104,7 +111,7 @@ def test_a_key_unpickles_to_the_live_type_or_to_one_that_matches_nothing_and_kee
 
 
 def test_a_handle_travels_to_another_process_as_its_function():
-    handle = relaxing_rigid_body().model.grad_H
+    handle = relaxing_rigid_body().inlined_model.grad_H
     again = pickle.loads(pickle.dumps(handle))
     assert isinstance(again, handles.InlinedHandle) and again.key == handle.key
     assert again(X0, np.array([0.5, 1.0, 1.5])) == handle(X0, np.array([0.5, 1.0, 1.5]))

@@ -388,15 +388,18 @@ def test_a_raising_function_is_named_at_evaluation():
 
 
 # -- the model the kernels receive -------------------------------------------------------------------
-def test_the_model_is_a_ModelN_of_the_users_functions():
+def test_the_model_is_a_ModelN_of_first_class_functions_and_the_loops_of_inlined_ones():
     paper, generic = _fish(), _generic()
     for system, metric, direction in ((paper, layout.PAPER_METRIC, -1.0), (generic, layout.USER_METRIC, 1.0)):
         model = system.model
         assert isinstance(model, layout.ModelN) and model is system.model  # cached
         assert model.metric == metric and model.direction == direction
-        f = system.functions
-        for handle, fn in ((model.H, f.H), (model.grad_H, f.grad_H), (model.S, f.S), (model.grad_S, f.grad_S)):
-            assert handle.dispatcher is fn  # module-level functions: inlined into the kernels (model.handles)
+        assert numba.typeof(model.P) == numba.typeof(model.M)
+        assert numba.typeof(model.grad_H) == numba.typeof(model.grad_S)
+        inlined, f = system.inlined_model, system.functions
+        assert isinstance(inlined, layout.ModelN) and inlined is system.inlined_model
+        for handle, fn in ((inlined.H, f.H), (inlined.grad_H, f.grad_H), (inlined.S, f.S), (inlined.grad_S, f.grad_S)):
+            assert handle.dispatcher is fn  # module-level functions: inlined into the step loop (model.handles)
     np.testing.assert_array_equal(paper.model.origin, [0.0, 0.0])
     np.testing.assert_array_equal(generic.model.origin, [1.0, 0.0])  # E(0) = e^0
     np.testing.assert_array_equal(no_metric(np.zeros(5), np.zeros(0)), np.zeros((5, 5)))

@@ -7,6 +7,8 @@ from test_system import _H, _J, _S, _grad_H, _grad_S, _grad_S_array, _J_array
 
 import geomint
 
+pytestmark = pytest.mark.inlined  # the step loop as users run it (conftest.py)
+
 
 @numba.njit
 def _grad_S_raising_below_half(x, p):

@@ -20,7 +20,7 @@ from numba.extending import overload
 
 from .._cache import CACHE
 from .control import start
-from .layout import C_STOP, OK, STATUS, Model, ModelN
+from .layout import C_STOP, OK, RAISED, STATUS, Model, ModelN
 from .loop import Output, run
 from .state import _is_n, _typed_n
 
@@ -98,8 +98,11 @@ def run_batch(
         if counters[i, STATUS] != OK or clocks[i, C_STOP] >= stops.shape[0]:
             continue
         own = own_model(model, params[i], origins[i])
-        start(control, own, eps[i], hamiltonian, start_point(model, states[i]), clocks[i], stops[-1])
         out = Output(t[i], x[i], H[i], S[i], counters[i], residuals[i])
+        try:
+            start(control, own, eps[i], hamiltonian, start_point(model, states[i]), clocks[i], stops[-1])
+        except Exception:  # noqa: BLE001 - an inlined user function raised where the first step is chosen: the
+            counters[i, RAISED] += 1  # loop saves the start and fails the first step, as for a raise it counts
         run(own, eps[i], hamiltonian, method, control, states[i], works[i], clocks[i], stops, budget, out)
 
 

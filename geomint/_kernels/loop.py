@@ -132,32 +132,41 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
         target = stops[int(clock[C_STOP])]
         h, landing = propose(control, clock, t_now, target)
         H_target = anchor
-        if adaptive and clock[C_REACH] < 1.0:
-            if np.isnan(H_x):
-                H_x = model.H(point(buf, x), p)
-            H_target = H_x + clock[C_REACH] * (anchor - H_x)
-        S_given = S_x if np.isnan(S_kept) or H_target != anchor else S_kept
-        r, err, rises, fired = attempt(
-            control, method, model, eps, hamiltonian, buf, x, comp, H_target, S_given, h, work
-        )
-        iterations += r.iterations
-        evaluations += r.evaluations
-        residual = r.residual
-        status, culprit = r.status, r.culprit
-        if counters[RAISED] != 0:  # a user function raised inside the step: its values were garbage
-            status = USER_RAISED
-        x_new, comp_new = flushed(r.x, r.comp)
-        H_new, S_new = r.H, r.S
         saving = landing or countdown == 1
-        if status == OK and not finite(x_new):
-            status = NON_FINITE
-        if lazy:  # H and S only where saved, or where the step knows S
-            evaluate = (saving or not np.isnan(S_new)) and (np.isnan(H_new) or not unchanged(x_new, r.x))
-        else:
-            evaluate = np.isnan(H_new) or np.isnan(S_new) or not unchanged(x_new, r.x)
-        if status == OK and evaluate:
-            at = point(buf, x_new)
-            H_new, S_new = model.H(at, p), model.S(at, p)
+        # an inlined user function (``geomint.model.handles``) raises into the kernel: the step fails as one whose
+        # function raised (a first-class one cannot raise here: ``geomint._user_errors`` counts it in RAISED)
+        raised = True
+        status, culprit, err, rises, fired = USER_RAISED, 0, np.nan, 0, 0
+        x_new, comp_new, H_new, S_new = x, comp, np.nan, np.nan
+        try:
+            if adaptive and clock[C_REACH] < 1.0:
+                if np.isnan(H_x):
+                    H_x = model.H(point(buf, x), p)
+                H_target = H_x + clock[C_REACH] * (anchor - H_x)
+            S_given = S_x if np.isnan(S_kept) or H_target != anchor else S_kept
+            r, err, rises, fired = attempt(
+                control, method, model, eps, hamiltonian, buf, x, comp, H_target, S_given, h, work
+            )
+            iterations += r.iterations
+            evaluations += r.evaluations
+            residual = r.residual
+            status, culprit = r.status, r.culprit
+            x_new, comp_new = flushed(r.x, r.comp)
+            H_new, S_new = r.H, r.S
+            if status == OK and not finite(x_new):
+                status = NON_FINITE
+            if lazy:  # H and S only where saved, or where the step knows S
+                evaluate = (saving or not np.isnan(S_new)) and (np.isnan(H_new) or not unchanged(x_new, r.x))
+            else:
+                evaluate = np.isnan(H_new) or np.isnan(S_new) or not unchanged(x_new, r.x)
+            if status == OK and evaluate:
+                at = point(buf, x_new)
+                H_new, S_new = model.H(at, p), model.S(at, p)
+            raised = False
+        except Exception:  # noqa: BLE001 - numba catches no narrower class from compiled code
+            pass
+        if raised or counters[RAISED] != 0:  # a user function raised inside the step: its values were garbage
+            status, culprit = USER_RAISED, 0
         if status == OK and (saving or not lazy) and not (np.isfinite(H_new) and np.isfinite(S_new)):
             status = NON_FINITE
         if adaptive:
@@ -174,15 +183,30 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
                 rejected += 1
                 after_rejection = True
                 continue
+        if status == OK and adaptive and H_target != anchor:  # kept (nearly) its own energy: back onto the anchor's
+            try:
+                x_new, H_new, S_new, ev = pulled_back(
+                    model, buf, x_new, H_new, S_new, anchor, max(S_x, S_new), PULL_BACK_ITER, work
+                )
+                evaluations += ev
+            except Exception:  # noqa: BLE001 - an inlined user function raised
+                status, culprit = USER_RAISED, 0
         if status != OK:
             if status == NON_FINITE and culprit == 0:
-                culprit = culprit_of(model, buf, x_new if finite(x_new) else x, hamiltonian)
+                try:
+                    culprit = culprit_of(model, buf, x_new if finite(x_new) else x, hamiltonian)
+                except Exception:  # noqa: BLE001 - an inlined user function raised: the step's own failure stands
+                    pass
             counters[STATUS] = status
             counters[FAILED_STEP] = counters[STEPS] + steps + 1
             counters[CULPRIT] = culprit
             if out.t[counters[ROWS] - 1] != t_now:  # the last good state was not saved yet
-                at = point(buf, x)
-                H_last, S_last = model.H(at, p), (model.S(at, p) if lazy else S_x)
+                H_last, S_last = np.nan, np.nan
+                try:
+                    at = point(buf, x)
+                    H_last, S_last = model.H(at, p), (model.S(at, p) if lazy else S_x)
+                except Exception:  # noqa: BLE001 - an inlined user function raised: as not finite
+                    pass
                 if np.isfinite(H_last) and np.isfinite(S_last):
                     _save(out, t_now, x, H_last, S_last)
                 else:  # lazy: H and S were last checked at the last saved row, and they went non-finite since
@@ -192,11 +216,6 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
                     steps -= back
                     counters[FAILED_STEP] -= back
             break
-        if adaptive and H_target != anchor:  # the step kept (nearly) its own energy: back onto the anchor's
-            x_new, H_new, S_new, ev = pulled_back(
-                model, buf, x_new, H_new, S_new, anchor, max(S_x, S_new), PULL_BACK_ITER, work
-            )
-            evaluations += ev
         if rise >= 0.0:
             counters[SUB_STEP_RISES] += rises
             counters[SAFEGUARD_FIRED] += fired

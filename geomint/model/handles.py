@@ -50,16 +50,24 @@ import hashlib
 import inspect
 import os
 import sys
+import warnings
 from typing import Any
 
 import numba
 from numba.core import types
 from numba.core.datamodel.models import OpaqueModel
 from numba.core.dispatcher import Dispatcher
+from numba.core.errors import NumbaExperimentalFeatureWarning
 from numba.core.types.function_type import CompileResultWAP
 from numba.extending import register_model
 
 from .functions import ACTION_SIGNATURE, SIGNATURE
+
+# numba warns at each compilation with a first-class function that the feature is experimental; the user cannot act
+# on that, so this one warning is filtered (by its message, nothing else)
+warnings.filterwarnings(
+    "ignore", message=".*First-class function type feature is experimental", category=NumbaExperimentalFeatureWarning
+)
 
 #: the live type of each key in this process
 _LIVE: dict[tuple[str, ...], Inlined] = {}
@@ -129,7 +137,7 @@ class InlinedHandle:
         return self.dispatcher(*args)
 
     def __reduce__(self) -> Any:  # another process (a Dask worker) hands it over anew
-        return (kernel_handle, (self.dispatcher,))
+        return (kernel_handle, (self.dispatcher, False, True))
 
 
 def _file_digest(path: str) -> str | None:
@@ -142,10 +150,15 @@ def _file_digest(path: str) -> str | None:
     return _FILES[path]
 
 
+def enabled() -> bool:
+    """False where ``GEOMINT_INLINE=0`` is set: every function is then handed over first-class."""
+    return os.environ.get("GEOMINT_INLINE", "1") != "0"
+
+
 def inline_key(fn: Any) -> tuple[str, ...] | None:
-    """``(module, qualname, digest of the source file)`` of a module-level numba function found again under its
-    module and name, else None (see the module docstring)."""
-    if os.environ.get("GEOMINT_INLINE", "1") == "0" or not isinstance(fn, Dispatcher):
+    """``(module, qualname, digest of the source file, digest of the compile options)`` of a module-level numba
+    function found again under its module and name, else None (see the module docstring)."""
+    if not enabled() or not isinstance(fn, Dispatcher):
         return None
     py_func = fn.py_func
     module, qualname = py_func.__module__, py_func.__qualname__
@@ -167,16 +180,16 @@ def inline_key(fn: Any) -> tuple[str, ...] | None:
     return (module, qualname, digest, hashlib.sha1(options.encode()).hexdigest()[:8])
 
 
-def kernel_handle(fn: Any, action: bool = False) -> Any:
-    """A jitted user function as the kernels receive it: an :class:`InlinedHandle` where it can be inlined and
-    cached, else a first-class function object of ``(x, v, params)`` where ``action``, of ``(x, params)``
-    otherwise.  Under ``NUMBA_DISABLE_JIT=1`` the function itself."""
+def kernel_handle(fn: Any, action: bool = False, inline: bool = True) -> Any:
+    """A jitted user function as the kernels receive it: an :class:`InlinedHandle` where ``inline`` and it can be
+    inlined and cached, else a first-class function object of ``(x, v, params)`` where ``action``, of
+    ``(x, params)`` otherwise.  Under ``NUMBA_DISABLE_JIT=1`` the function itself."""
     if numba.config.DISABLE_JIT:  # pyright: ignore[reportPrivateImportUsage, reportAttributeAccessIssue]
         return fn
     signature = ACTION_SIGNATURE if action else SIGNATURE
     if signature not in fn.overloads:  # a system unpickled in another process (a Dask worker)
         fn.compile(signature)
-    key = inline_key(fn)
+    key = inline_key(fn) if inline else None
     if key is None:
         return CompileResultWAP(fn.overloads[signature])
     return InlinedHandle(fn, key)

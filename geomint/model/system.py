@@ -24,6 +24,7 @@ import numpy as np
 from .. import _user_errors, _validate
 from .._kernels import field as _field
 from .._kernels.layout import Model
+from . import handles
 from .checks import check_exact_flows, check_structure, declared_exact_flows
 from .functions import ModelFunctions, check_shapes, matrix_function, scalar_function, vector_function
 from .handles import kernel_handle
@@ -190,21 +191,35 @@ class MetriplecticSystem:
     # -- the model as kernels receive it ------------------------------------------------
     @property
     def model(self) -> Model:
-        """``layout.Model(H, grad_H, S, grad_S, J or P, params, origin)``: the model as every kernel receives it.
+        """``layout.Model(H, grad_H, S, grad_S, J or P, params, origin)``: the model as kernels receive it, the
+        functions as compiled first-class function objects (one compiled kernel serves every system of the same
+        function types; a user function that raises is caught by ``geomint._user_errors``).
 
-        The functions are handed over as compiled first-class function objects
-        (their machine addresses, looked up once), not as dispatchers, which
-        numba would resolve anew at every kernel call.  Their types (tuple or
-        array results, J or P) select the compiled kernel variant.  ``origin``
-        holds H, grad H, S and grad S at 0 (0 where not finite): the kernels
-        measure the constant and linear terms of H and S from it, the terms
-        whose round-off ``x . grad F`` does not show.
+        Their types (tuple or array results, J or P) select the compiled
+        kernel variant.  ``origin`` holds H, grad H, S and grad S at 0 (0 where
+        not finite): the kernels measure the constant and linear terms of H
+        and S from it, the terms whose round-off ``x . grad F`` does not show.
         """
-        if "_model" not in self.__dict__:
-            f = self.functions
-            handles = tuple(kernel_handle(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S, f.poisson))
-            self._model = Model(*handles, self._params, self._origin())  # pyright: ignore[reportCallIssue]  # 5 handles
-        return self._model
+        return self._kernel_model(inline=False)
+
+    @property
+    def inlined_model(self) -> Model:
+        """The same model with each user function that can be found again by name handed over to be inlined
+        (``geomint.model.handles``): the step loop's (``geomint.run.chunks``, ensembles), compiled for this
+        system and cached, several times faster on small systems; its kernels catch what the functions raise."""
+        return self._kernel_model(inline=True)
+
+    def _kernel_model(self, inline: bool) -> Any:
+        models = self.__dict__.setdefault("_models", {})
+        inline = inline and handles.enabled()
+        if inline not in models:
+            models[inline] = self._build_model(lambda fn, action=False: kernel_handle(fn, action, inline))
+        return models[inline]
+
+    def _build_model(self, handle: Any) -> Model:
+        f = self.functions
+        handles = tuple(handle(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S, f.poisson))
+        return Model(*handles, self._params, self._origin())  # pyright: ignore[reportCallIssue]  # 5 handles
 
     def _origin(self, params=None):
         """H, grad H, S, grad S at 0 (0 where not finite or raising), with ``params`` (default: the system's)."""
@@ -247,7 +262,7 @@ class MetriplecticSystem:
                     f"{values.size}: {values.tolist()}."
                 )
             other._params = values
-            other.__dict__.pop("_model", None)
+            other.__dict__.pop("_models", None)
             check_shapes(other.functions, values)
             with np.errstate(all="ignore"):
                 check_structure(other)
@@ -263,7 +278,7 @@ class MetriplecticSystem:
         """Pickled without the compiled model (function addresses of this process), rebuilt on first use: a
         system can be shipped to other processes (Dask workers)."""
         state = dict(self.__dict__)
-        state.pop("_model", None)
+        state.pop("_models", None)
         return state
 
     def __repr__(self) -> str:

@@ -42,7 +42,6 @@ from .functions import (
     no_metric,
     scalar_function,
 )
-from .handles import kernel_handle
 from .system import MetriplecticSystem, _check_eps
 
 if TYPE_CHECKING:
@@ -249,23 +248,18 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         f = self.functions
         return (P_ACTION if f.P_apply is not None else 0) | (M_ACTION if f.M_apply is not None else 0)
 
-    @property
-    def model(self) -> ModelN:  # pyright: ignore[reportIncompatibleVariableOverride]  # the R^n engine's model
+    def _build_model(self, handle: Any) -> ModelN:  # pyright: ignore[reportIncompatibleMethodOverride]  # R^n
         """``layout.ModelN(H, grad_H, S, grad_S, P, M, params, metric, direction, origin, P_apply, M_apply,
-        actions)``: the system as the R^n kernels receive it, the functions as compiled first-class function
-        objects.  Each operator's unused form (the matrix where an action is given, the action where a matrix is,
-        both where the paper's metric is used) is a placeholder of the same type, never called: every system in
-        R^n has one numba type."""
-        if "_model" not in self.__dict__:
-            f = self.functions
-            matrices = tuple(kernel_handle(no_metric if fn is None else fn) for fn in (f.P, f.M))
-            actions = tuple(
-                kernel_handle(no_action if fn is None else fn, action=True) for fn in (f.P_apply, f.M_apply)
-            )
-            handles = tuple(kernel_handle(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S))
-            fields = (*handles, *matrices, self._params, self.metric, self.direction, self._origin(), *actions)
-            self._model = ModelN(*fields, self.actions)  # pyright: ignore[reportCallIssue]  # 12 fields and actions
-        return self._model
+        actions)``: the system as the R^n kernels receive it (``model``: the functions first-class;
+        ``inlined_model``: inlined where they can be).  Each operator's unused form (the matrix where an action is
+        given, the action where a matrix is, both where the paper's metric is used) is a placeholder, never
+        called."""
+        f = self.functions
+        matrices = tuple(handle(no_metric if fn is None else fn) for fn in (f.P, f.M))
+        actions = tuple(handle(no_action if fn is None else fn, action=True) for fn in (f.P_apply, f.M_apply))
+        handles = tuple(handle(fn) for fn in (f.H, f.grad_H, f.S, f.grad_S))
+        fields = (*handles, *matrices, self._params, self.metric, self.direction, self._origin(), *actions)
+        return ModelN(*fields, self.actions)  # pyright: ignore[reportCallIssue]  # 12 fields and actions
 
     def _origin(self, params=None):
         """``(H(0), S(0))``, 0 where not finite or raising, with ``params`` (default: the system's)."""
@@ -301,7 +295,7 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
                     f"{values.size}: {values.tolist()}."
                 )
             other._params = values
-            other.__dict__.pop("_model", None)
+            other.__dict__.pop("_models", None)
             other._check(self._checked)
         if hamiltonian is not None:
             if not isinstance(hamiltonian, (bool, np.bool_)):

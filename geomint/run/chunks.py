@@ -125,5 +125,6 @@ def run_chunk(
     """At most ``budget`` attempted steps of the compiled loop (arrays updated in place); returns the seconds
     it took."""
     started = time.perf_counter()
-    _loop.run(system.model, system.eps, system.hamiltonian, step_data, control, state, work, clock, stops, budget, out)
+    model = system.inlined_model  # the user's functions inlined where they can be (``geomint.model.handles``)
+    _loop.run(model, system.eps, system.hamiltonian, step_data, control, state, work, clock, stops, budget, out)
     return time.perf_counter() - started

@@ -539,7 +539,7 @@ class _FixedPlan:
     def run(self, system, step_data, views, first, stride):
         p, o, e, st, wo, tt, xx, HH, SS, co, re, cl = views
         _batch.run_batch(
-            system.model,
+            system.inlined_model,
             p,
             o,
             e,
@@ -600,7 +600,7 @@ class _MarchPlan:
     def run(self, system, step_data, views, first, stride):
         p, o, e, st, wo, tt, xx, HH, SS, co, re, cl = views
         _batch.run_batch(
-            system.model,
+            system.inlined_model,
             p,
             o,
             e,

@@ -427,11 +427,15 @@ def _to_stops(
     counters = out.counters
     terminated = None
     scanned = 0
-    model = system.model
     with _user_errors.catching(counters) as raised, interrupts() as interrupted:
-        if chosen:  # a user function raising here fails the first step, as in the loop
+        if chosen:  # a user function raising here fails the first step, as in the loop (and as in an ensemble)
             first = _control_n.first_step_n if isinstance(system, MetriplecticSystemN) else _control.first_step
-            control = control._replace(h=first(model, system.eps, system.hamiltonian, x0, t0, t_end, control))
+            try:
+                h_first = first(system.inlined_model, system.eps, system.hamiltonian, x0, t0, t_end, control)
+            except Exception:  # noqa: BLE001 - an inlined user function raised: the loop fails step 1 from x0
+                counters[_layout.RAISED] += 1
+                h_first = 0.0
+            control = control._replace(h=h_first)
         clock = _layout.new_clock(t0, control.h)
         budget = FIRST_CHUNK
         while clock[_layout.C_STOP] < len(stops) and counters[_layout.STATUS] == Status.OK:
