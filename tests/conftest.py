@@ -21,9 +21,9 @@ def _first_class_unless_marked_inlined(request, monkeypatch):
 
     Inlined, every system a test module defines gets kernels compiled for it (seconds each, ~25 minutes for the
     suite on an empty cache); first-class, one compilation serves every system of a form.  The kernels' code is
-    the same either way: the modules marked ``inlined`` (the reference digests, user functions that raise,
-    ensembles against ``solve``, ``tests/test_handles.py``) show the inlined loop gives the same bits and the same
-    failures."""
+    the same either way: the tests marked ``inlined`` (``tests/test_handles.py``: a method of each engine, the
+    same bits inlined and first-class; user functions that raise; ensembles against ``solve``) show the inlined
+    loop gives the same bits and the same failures."""
     if request.node.get_closest_marker("inlined") is None:
         monkeypatch.setenv("GEOMINT_INLINE", "0")
 

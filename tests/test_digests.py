@@ -17,8 +17,6 @@ import zoo
 
 import geomint
 
-pytestmark = pytest.mark.inlined  # the step loop as users run it (conftest.py)
-
 DATA = Path(__file__).resolve().parent / "data" / "digests.json"
 
 #: every method by name, and wrapped ones that exercise the composition, projection and splitting engines

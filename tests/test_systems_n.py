@@ -388,6 +388,7 @@ def test_a_raising_function_is_named_at_evaluation():
 
 
 # -- the model the kernels receive -------------------------------------------------------------------
+@pytest.mark.inlined
 def test_the_model_is_a_ModelN_of_first_class_functions_and_the_loops_of_inlined_ones():
     paper, generic = _fish(), _generic()
     for system, metric, direction in ((paper, layout.PAPER_METRIC, -1.0), (generic, layout.USER_METRIC, 1.0)):
