@@ -6,7 +6,7 @@ runs and the landing steps of ``events``); ``next_chunk`` sizes the next chunk t
 
 from __future__ import annotations
 
-import _signal
+import _signal  # pyright: ignore[reportMissingImports]  # the C module under signal (no stub)
 import contextlib
 import threading
 import time
