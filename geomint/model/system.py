@@ -25,6 +25,7 @@ from .. import _user_errors, _validate
 from .._kernels import field as _field
 from .._kernels.layout import Model
 from . import handles
+from . import model_types as _model_types  # noqa: F401 - the models' numba types kept per model object
 from .checks import check_exact_flows, check_structure, declared_exact_flows
 from .functions import ModelFunctions, check_shapes, matrix_function, scalar_function, vector_function
 from .handles import kernel_handle

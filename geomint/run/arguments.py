@@ -39,8 +39,10 @@ def check_states(value: object, name: str, one: bool = True, dim: int = DIMENSIO
         states = np.array(value, dtype=np.float64)
     except (TypeError, ValueError, OverflowError):
         raise TypeError(f"`{name}` must be {kind}; got {value!r}.") from None
-    if np.asarray(value).dtype.kind not in "iuf" or any(
-        isinstance(v, (bool, np.bool_)) for v in np.asarray(value, dtype=object).ravel()
+    numeric = isinstance(value, np.ndarray) and value.dtype.kind in "iuf"  # no bool can be among its values
+    if not numeric and (
+        np.asarray(value).dtype.kind not in "iuf"
+        or any(isinstance(v, (bool, np.bool_)) for v in np.asarray(value, dtype=object).ravel())
     ):
         raise TypeError(f"`{name}` must be {kind}; got {value!r}.")  # True is no coordinate, even beside numbers
     if states.ndim != (1 if one else 2) or states.shape[-1] != dim or states.size == 0:
