@@ -20,13 +20,14 @@ from x0 = (cos 1.1, 0, sin 1.1): it moves until t ~ 50 and rests at its pole aft
 * **10^8 steps**: one geomint Gonzalez solve, final state only (``save_every=None``), in a fresh process: its wall
   time (compilation excluded: a short solve first) and the process's peak resident memory.
 
-``--inline-user-functions`` measures geomint with its user functions inlined into the kernels (a monkeypatch of
-``geomint.model.system.first_class``, compiling per system; what the engine will cost once it specialises its
-kernels per system): the page then says so.  The harness does not need it.
+geomint's step loop takes the body's functions inlined (``geomint.model.handles``); ``--first-class`` measures it
+with every user function first-class instead (``GEOMINT_INLINE=0``, as before the loop was specialised per
+system): the page then says so.
 """
 
 import argparse
 import multiprocessing
+import os
 import resource
 import statistics
 import time
@@ -77,12 +78,10 @@ def _body():
     return geomint.systems.relaxing_rigid_body(A, B, C, eps=EPS_BODY)
 
 
-def _inline_user_functions():
-    """geomint with its user functions inlined into the kernels: ``first_class`` made the identity (module
-    docstring)."""
-    import geomint.model.system as system
-
-    system.first_class = lambda fn, action=False: fn
+def _first_class(first_class):
+    """Every user function handed to the kernels first-class where ``first_class`` (module docstring)."""
+    if first_class:
+        os.environ["GEOMINT_INLINE"] = "0"
 
 
 def _medians(runs, repeats):
@@ -177,10 +176,9 @@ def ensemble(size, steps, repeats):
     return {name: 1e9 * seconds / (size * steps) for name, seconds in t.items()}, check
 
 
-def measure(rest_steps, repeats, ensemble_size, ensemble_steps, ensemble_repeats, inline_user_functions):
+def measure(rest_steps, repeats, ensemble_size, ensemble_steps, ensemble_repeats, first_class):
     """One process's figures: ``(ns/step, iterations/step, fixed cost per call, ensemble check)``."""
-    if inline_user_functions:
-        _inline_user_functions()
+    _first_class(first_class)
     ns, iterations, fixed = per_step(rest_steps, repeats)
     times, check = ensemble(ensemble_size, ensemble_steps, ensemble_repeats)
     ns.update(times)
@@ -201,11 +199,10 @@ def floor_checks(steps):
     return checks
 
 
-def long_run(steps, inline_user_functions):
+def long_run(steps, first_class):
     """``steps`` geomint Gonzalez steps, final state only: ``(seconds, peak RSS in MB, Newton iterations/step,
     |H - H0| / H0)``; run in a fresh process so that the peak is this run's."""
-    if inline_user_functions:
-        _inline_user_functions()
+    _first_class(first_class)
     body = _body()
     _solve(body, X0, geomint.Gonzalez(), 10)
     start = time.perf_counter()
@@ -346,6 +343,31 @@ def report_solves(solves, repeats):
     return lines
 
 
+#: how to read the page (written by hand; the figures in it are from the runs it names)
+READING = """
+## Reading
+
+**What inlining changed.** Until 2026-11-25 every kernel reached the user's functions as first-class functions,
+calls numba cannot inline. The step loop now takes them inlined where they can be found again by name
+(`geomint/model/handles.py`, docs/design.md section 5), compiled for the system and cached on disk. The same harness
+with `--first-class` (the old way) gave, on a loaded machine, geomint / floor 19.2 moving, 10.4 at rest, RK4 /
+inlined RK4 10.7, solve_ensemble / prange floor 10.2, 10^8 steps 58 s; in one quiet process the relaxing body's RK4
+went from 371 to 75 ns a step, Gonzalez from 992 to 520 moving and from 429 to 252 at rest, the same bits.
+
+**What remains** is geomint's own work around the user's functions, not the calls: geomint and the floor take the
+same Newton iterations (3.0 moving, 1.0 at rest), so each of geomint's iterations costs ~6 of the floor's. Per
+iteration geomint measures the round-off of H and S from their terms (`roundoff.term_scale`, `origin_terms`), keeps
+Gonzalez's switching gains and the noise floor of the quotients, polishes F against dgH and dgS
+(`discrete_field.polish`), judges the corrected iterate with a second evaluation of H and S and, near the bound,
+of their gradients (`newton._kept_at`), caps a rise of S after the root (`dg_step`), and keeps the predictor's
+history; the loop around it checks finiteness, flushes tiny components and keeps its clock in memory. Each guards a
+hard case of docs/hard_cases.md. Making every internal call inline (numba's `forceinline` on all of
+`_kernels/jit.inner`) was tried: Gonzalez 15 % faster (451 ns moving, 213 at rest), RK4 three times slower (215 ns,
+not investigated) and 43 s of compilation; not taken. The next step is a fast path that
+does the hard-case work only where a cheap test says it is needed, shown bit for bit by the digests.
+"""
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rest-steps", type=int, default=200_000)
@@ -356,21 +378,21 @@ def main(argv=None):
     parser.add_argument("--ensemble-repeats", type=int, default=3)
     parser.add_argument("--check-steps", type=int, default=25_000)
     parser.add_argument("--long-steps", type=int, default=100_000_000)
-    parser.add_argument("--inline-user-functions", action="store_true", help="geomint with user functions inlined")
+    parser.add_argument("--first-class", action="store_true", help="geomint with every user function first-class")
     parser.add_argument("--out", type=Path, default=DOCS / "engine_speed.md")
     parser.add_argument("--quick", action="store_true", help="tiny sizes, to try the harness (not for the page)")
     args = parser.parse_args(argv)
     if args.quick:
         args.rest_steps, args.repeats, args.processes = 20_000, 3, 2
         args.ensemble, args.ensemble_steps, args.ensemble_repeats, args.long_steps = 500, 200, 1, 1_000_000
-    inlined = args.inline_user_functions
+    first_class = args.first_class
     samples = in_fresh_processes(
         measure,
-        (args.rest_steps, args.repeats, args.ensemble, args.ensemble_steps, args.ensemble_repeats, inlined),
+        (args.rest_steps, args.repeats, args.ensemble, args.ensemble_steps, args.ensemble_repeats, first_class),
         args.processes,
     )
-    long = in_fresh_processes(long_run, (args.long_steps, inlined), 1)[0]
-    command = "PYTHONPATH=. python -m experiments.engine_speed" + (" --inline-user-functions" if inlined else "")
+    long = in_fresh_processes(long_run, (args.long_steps, first_class), 1)[0]
+    command = "PYTHONPATH=. python -m experiments.engine_speed" + (" --first-class" if first_class else "")
     lines = [
         "# Engine speed in R^3: against hand-written floors",
         "",
@@ -378,11 +400,10 @@ def main(argv=None):
         "the floors are experiments/floors.py. In R^n: [engine_rn_speed.md](engine_rn_speed.md).",
         "",
     ]
-    if inlined:
+    if first_class:
         lines += [
-            "**Measured with geomint's user functions inlined into its kernels** (`--inline-user-functions`: a "
-            "monkeypatch making `geomint.model.system.first_class` the identity), what the per-system kernels are "
-            "expected to cost; not geomint as released.",
+            "**Measured with every user function first-class** (`--first-class`, `GEOMINT_INLINE=0`): geomint's "
+            "kernels as they were before the step loop took the user's functions inlined; not geomint's default.",
             "",
         ]
     lines += [
@@ -399,7 +420,7 @@ def main(argv=None):
     lines += report_long(long, args.long_steps) + [""]
     lines += report_floor_checks(floor_checks(args.check_steps), args.check_steps) + [""]
     lines += report_solves(whole_solves(args.repeats), args.repeats)
-    text = "\n".join(lines) + "\n"
+    text = "\n".join(lines) + "\n" + READING
     args.out.write_text(text)
     print(text)
 

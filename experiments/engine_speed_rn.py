@@ -163,7 +163,7 @@ def engine_run(system, x0, h, steps, solver, every_state=False, method=None):
     work, state = new_run_state(data, np.asarray(x0, dtype=float), True)
     work[step_n.WN_SOLVER] = solver
     clock = layout.new_clock(0.0)
-    model, eps, ham = system.model, system.eps, system.hamiltonian
+    model, eps, ham = system.inlined_model, system.eps, system.hamiltonian  # as solve runs it
     loop.run(model, eps, ham, data, grid, state, work, clock, np.array([t_end]), n_steps, out)
     if every_state:
         return out.x[: out.counters[layout.ROWS]].copy(), out.counters, work
