@@ -18,6 +18,7 @@ import numpy as np
 from numba import njit
 
 from .._cache import CACHE
+from .borrow import borrowed
 from .control import FAILED_FACTOR, PULL_BACK_ITER, accept, attempt, now, on_rejection, propose, traits
 from .jit import inner
 from .layout import (
@@ -103,8 +104,12 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
     ``batch.run_batch`` and ``geomint.studies.S_rise_statistics``; they have
     validated every argument.
     """
+    owner = np.empty(3)
+    buf = borrowed(owner)
+    model, method, control, state, work, clock, stops, out = borrowed(
+        (model, method, control, state, work, clock, stops, out)
+    )
     counters = out.counters
-    buf = np.empty(3)
     p = model.params
     x, comp = unpack(model, state)
     if counters[ROWS] == 0:
@@ -235,3 +240,4 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
     out.residual[0] = residual
     pack(state, x, comp)
     state[S_AT] = S_x
+    owner[0] = 0.0  # the buffer borrowed above is held until here
