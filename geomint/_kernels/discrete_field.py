@@ -17,13 +17,13 @@ from numba.extending import overload
 from .._cache import CACHE
 from .dispatch import INLINED, by_code
 from .field import dissipative
-from .jit import inner
+from .jit import hot, inner
 from .layout import EPS
 from .roundoff import origin_terms
 from .vec3 import ZERO, as_vector, axpy, cross, dot, is_finite, load, norm_inf, scale, sub
 
 
-@inner
+@hot
 def discrete_axial(axial, grad_s):
     """``Jbar = (J . n) n`` with ``n = dgS / |dgS|``: parallel to dgS, so S is a Casimir.
 
@@ -40,7 +40,7 @@ def discrete_axial(axial, grad_s):
     return scale(dot(axial, n) / dot(n, n), n)
 
 
-@inner
+@hot
 def polish(F, dg_h, dg_s, eps):
     """F with ``F . dgH = 0`` and ``F . dgS = -eps |dgH x dgS|^2`` restored to the rounding of |F|.
 
@@ -142,7 +142,7 @@ def _discrete_field_with(discrete_gradient):
 
 #: the discrete field of each kind of discrete gradient, the gradient inlined (a call carrying the user's functions
 #: costs more than the quotient), and of integer codes (programs mixing kinds: chosen at run time)
-_FIELDS = {marker: inner(_discrete_field_with(dg)) for marker, dg in INLINED.items()}
+_FIELDS = {marker: hot(_discrete_field_with(dg)) for marker, dg in INLINED.items()}
 
 
 _FIELD_BY_CODE = inner(_discrete_field_with(by_code))

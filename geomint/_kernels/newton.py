@@ -13,7 +13,7 @@ import numpy as np
 
 from .discrete_field import discrete_field
 from .field import field, non_finite_culprit
-from .jit import inner
+from .jit import hot, inner
 from .layout import (
     EPS,
     NEWTON_FAILED,
@@ -139,7 +139,7 @@ def _kept_at(model, buf, y, dy, H_x, S_x, H_y, S_y, terms_h, terms_s, s_ulps, s_
     return kept(H_x, H_y, at_h, ACCEPT_ULPS, 0.0) and kept(S_x, S_y, at_s, s_ulps, s_direction), 1
 
 
-@inner
+@hot
 def newton(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, dx, m):
     """Solve ``x' = x + h F(x, x')`` from the increment ``dx`` with the Newton matrix ``m``.
 
