@@ -271,7 +271,7 @@ def solve_ensemble(
         Trajectories per round of kernel calls (per Dask task).
     threads : int, optional
         Threads running the compiled kernel (it releases the GIL) on
-        interleaved trajectories of a chunk; default: the cores numba sees.
+        trajectories of a chunk, in turns of ``geomint._kernels.batch.GROUP``; default: the cores numba sees.
 
     Returns
     -------
