@@ -20,7 +20,7 @@ from numba import njit
 from .._cache import CACHE
 from .borrow import borrowed
 from .control import FAILED_FACTOR, PULL_BACK_ITER, accept, attempt, now, on_rejection, propose, traits
-from .jit import inner
+from .jit import hot, inner
 from .layout import (
     C_COUNT,
     C_H,
@@ -75,6 +75,76 @@ def _save(out, t, x, H_x, S_x):
     out.H[row] = H_x
     out.S[row] = S_x
     out.counters[ROWS] = row + 1
+
+
+@hot
+def _attempted(
+    control,
+    method,
+    model,
+    eps,
+    hamiltonian,
+    buf,
+    x,
+    comp,
+    anchor,
+    H_x,
+    S_x,
+    S_kept,
+    h,
+    work,
+    clock,
+    adaptive,
+    lazy,
+    saving,
+):
+    """One attempted step from ``x`` as ``run`` takes it: ``(H_x, H_target, iterations, evaluations, residual,
+    status, culprit, x', comp', H(x'), S(x'), err, rises, fired)``, ``x'`` flushed (``vec3.flush_tiny``) and
+    checked finite, H and S evaluated at it where the step did not give them (``run``'s docstring); ``H_x`` is
+    evaluated where an adaptive anchor's reach is short of 1 and not known yet."""
+    p = model.params
+    H_target = anchor
+    if adaptive and clock[C_REACH] < 1.0:
+        if np.isnan(H_x):
+            H_x = model.H(point(buf, x), p)
+        H_target = H_x + clock[C_REACH] * (anchor - H_x)
+    S_given = S_x if np.isnan(S_kept) or H_target != anchor else S_kept
+    r, err, rises, fired = attempt(control, method, model, eps, hamiltonian, buf, x, comp, H_target, S_given, h, work)
+    status, culprit = r.status, r.culprit
+    x_new, comp_new = flushed(r.x, r.comp)
+    H_new, S_new = r.H, r.S
+    if status == OK and not finite(x_new):
+        status = NON_FINITE
+    if lazy:  # H and S only where saved, or where the step knows S
+        evaluate = (saving or not np.isnan(S_new)) and (np.isnan(H_new) or not unchanged(x_new, r.x))
+    else:
+        evaluate = np.isnan(H_new) or np.isnan(S_new) or not unchanged(x_new, r.x)
+    if status == OK and evaluate:
+        at = point(buf, x_new)
+        H_new, S_new = model.H(at, p), model.S(at, p)
+    return (
+        H_x,
+        H_target,
+        r.iterations,
+        r.evaluations,
+        r.residual,
+        status,
+        culprit,
+        x_new,
+        comp_new,
+        H_new,
+        S_new,
+        err,
+        rises,
+        fired,
+    )
+
+
+@inner
+def _values(model, buf, x, lazy, S_x):
+    """H and S at ``x`` (S as given where the run is not lazy)."""
+    at = point(buf, x)
+    return model.H(at, model.params), (model.S(at, model.params) if lazy else S_x)
 
 
 @njit(cache=CACHE, error_model="numpy")
@@ -142,34 +212,37 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
         # function raised (a first-class one cannot raise here: ``geomint._user_errors`` counts it in RAISED)
         raised = True
         status, culprit, err, rises, fired = USER_RAISED, 0, np.nan, 0, 0
-        x_new, comp_new, H_new, S_new = x, comp, np.nan, np.nan
+        x_new, comp_new, H_new, S_new, it, ev = x, comp, np.nan, np.nan, 0, 0
+        # (each ``try`` holds one call: numba splits a try region at every statement that can raise, and the
+        # compile time of the loop grows faster than its blocks)
         try:
-            if adaptive and clock[C_REACH] < 1.0:
-                if np.isnan(H_x):
-                    H_x = model.H(point(buf, x), p)
-                H_target = H_x + clock[C_REACH] * (anchor - H_x)
-            S_given = S_x if np.isnan(S_kept) or H_target != anchor else S_kept
-            r, err, rises, fired = attempt(
-                control, method, model, eps, hamiltonian, buf, x, comp, H_target, S_given, h, work
+            H_x, H_target, it, ev, residual, status, culprit, x_new, comp_new, H_new, S_new, err, rises, fired = (
+                _attempted(
+                    control,
+                    method,
+                    model,
+                    eps,
+                    hamiltonian,
+                    buf,
+                    x,
+                    comp,
+                    anchor,
+                    H_x,
+                    S_x,
+                    S_kept,
+                    h,
+                    work,
+                    clock,
+                    adaptive,
+                    lazy,
+                    saving,
+                )
             )
-            iterations += r.iterations
-            evaluations += r.evaluations
-            residual = r.residual
-            status, culprit = r.status, r.culprit
-            x_new, comp_new = flushed(r.x, r.comp)
-            H_new, S_new = r.H, r.S
-            if status == OK and not finite(x_new):
-                status = NON_FINITE
-            if lazy:  # H and S only where saved, or where the step knows S
-                evaluate = (saving or not np.isnan(S_new)) and (np.isnan(H_new) or not unchanged(x_new, r.x))
-            else:
-                evaluate = np.isnan(H_new) or np.isnan(S_new) or not unchanged(x_new, r.x)
-            if status == OK and evaluate:
-                at = point(buf, x_new)
-                H_new, S_new = model.H(at, p), model.S(at, p)
             raised = False
         except Exception:  # noqa: BLE001 - numba catches no narrower class from compiled code
             pass
+        iterations += it
+        evaluations += ev
         if raised or counters[RAISED] != 0:  # a user function raised inside the step: its values were garbage
             status, culprit = USER_RAISED, 0
         if status == OK and (saving or not lazy) and not (np.isfinite(H_new) and np.isfinite(S_new)):
@@ -189,17 +262,20 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
                 after_rejection = True
                 continue
         if status == OK and adaptive and H_target != anchor:  # kept (nearly) its own energy: back onto the anchor's
+            ev = 0
+            S_cap = max(S_x, S_new)
             try:
                 x_new, H_new, S_new, ev = pulled_back(
-                    model, buf, x_new, H_new, S_new, anchor, max(S_x, S_new), PULL_BACK_ITER, work
+                    model, buf, x_new, H_new, S_new, anchor, S_cap, PULL_BACK_ITER, work
                 )
-                evaluations += ev
             except Exception:  # noqa: BLE001 - an inlined user function raised
                 status, culprit = USER_RAISED, 0
+            evaluations += ev
         if status != OK:
             if status == NON_FINITE and culprit == 0:
+                at = x_new if finite(x_new) else x
                 try:
-                    culprit = culprit_of(model, buf, x_new if finite(x_new) else x, hamiltonian)
+                    culprit = culprit_of(model, buf, at, hamiltonian)
                 except Exception:  # noqa: BLE001 - an inlined user function raised: the step's own failure stands
                     pass
             counters[STATUS] = status
@@ -208,8 +284,7 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
             if out.t[counters[ROWS] - 1] != t_now:  # the last good state was not saved yet
                 H_last, S_last = np.nan, np.nan
                 try:
-                    at = point(buf, x)
-                    H_last, S_last = model.H(at, p), (model.S(at, p) if lazy else S_x)
+                    H_last, S_last = _values(model, buf, x, lazy, S_x)
                 except Exception:  # noqa: BLE001 - an inlined user function raised: as not finite
                     pass
                 if np.isfinite(H_last) and np.isfinite(S_last):
