@@ -307,8 +307,8 @@ def test_unwritable_out_and_unwritable_working_folder(tmp_path):
 def test_ctrl_c_in_a_cli_run_writes_what_was_done_and_exits_130(tmp_path, warm_cli):
     long = (
         VALID.replace("points = [[0.6, 0.0, 0.8]]", "points = [[0.6, 0.0, 0.8], [0.0, 0.6, 0.8]]")
-        .replace("duration = 0.5", "duration = 1e6")
-        .replace("every = 1", "every = 10000")
+        .replace("duration = 0.5", "duration = 1e8")  # the first trajectory alone is ~100 s of steps
+        .replace("every = 1", "every = 1000000")
     )
     scene, out = _scene(tmp_path, long), tmp_path / "out"
     env = warm_cli
