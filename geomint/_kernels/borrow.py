@@ -32,7 +32,7 @@ def _borrow(context, builder, ty, value):
         return array._getvalue()
     if isinstance(ty, types.BaseTuple) and isinstance(value.type, ir.LiteralStructType | ir.ArrayType):
         out = value
-        for k, member in enumerate(ty):
+        for k, member in enumerate(ty):  # pyright: ignore[reportArgumentType]  # numba's tuple types iterate
             out = builder.insert_value(out, _borrow(context, builder, member, builder.extract_value(value, k)), k)
         return out
     context.nrt.incref(builder, ty, value)  # anything else is handed on as a new reference, as numba expects
@@ -49,4 +49,4 @@ def _uncounted(typingctx, value):
 
 @overload(borrowed, inline="always")
 def _borrowed_typed(value):
-    return lambda value: _uncounted(value)
+    return lambda value: _uncounted(value)  # pyright: ignore[reportCallIssue]  # the typing context is numba's
