@@ -354,17 +354,30 @@ with `--first-class` (the old way) gave, on a loaded machine, geomint / floor 19
 inlined RK4 10.7, solve_ensemble / prange floor 10.2, 10^8 steps 58 s; in one quiet process the relaxing body's RK4
 went from 371 to 75 ns a step, Gonzalez from 992 to 520 moving and from 429 to 252 at rest, the same bits.
 
-**What remains** is geomint's own work around the user's functions, not the calls: geomint and the floor take the
-same Newton iterations (3.0 moving, 1.0 at rest), so each of geomint's iterations costs ~6 of the floor's. Per
-iteration geomint measures the round-off of H and S from their terms (`roundoff.term_scale`, `origin_terms`), keeps
-Gonzalez's switching gains and the noise floor of the quotients, polishes F against dgH and dgS
-(`discrete_field.polish`), judges the corrected iterate with a second evaluation of H and S and, near the bound,
-of their gradients (`newton._kept_at`), caps a rise of S after the root (`dg_step`), and keeps the predictor's
-history; the loop around it checks finiteness, flushes tiny components and keeps its clock in memory. Each guards a
-hard case of docs/hard_cases.md. Making every internal call inline (numba's `forceinline` on all of
-`_kernels/jit.inner`) was tried: Gonzalez 15 % faster (451 ns moving, 213 at rest), RK4 three times slower (215 ns,
-not investigated) and 43 s of compilation; not taken. The next step is a fast path that
-does the hard-case work only where a cheap test says it is needed, shown bit for bit by the digests.
+**What counting references cost.** With the calls inlined, geomint was still ~6 times the floor (557 ns moving, 262
+at rest). `perf` on a run at rest (a map of the compiled functions' addresses written from numba's code libraries,
+and the hot instructions read back from the process) put 73 % of the samples on two instructions: the atomic
+increment and decrement of an array's reference count. numba counts the references to every array a compiled
+function receives, and the step's kernels pass the state's buffer, the workspace and the user's `params` to one
+another dozens of times a step. The loop now holds them as borrowed arrays that numba does not count
+(`geomint/_kernels/borrow.py`): Gonzalez 242 -> 101 ns at rest, 537 -> 325 moving, RK4 75 -> 47 (one process each).
+With the counts gone, compiling Newton's iteration and the discrete field into the step (`jit.hot`, which had
+measured nothing before) took Gonzalez to 64 ns at rest. An ensemble's threads took every other trajectory, so
+that their clocks, written every step, shared cache lines; they now take groups of 8 consecutive trajectories
+(`batch.GROUP`): 2 threads went from 1.46 to 1.8 times one thread. All of it gives the same bits (the digests).
+
+**What remains.** At rest geomint is within 2 of the floor; moving it is not. Moving, geomint and the floor take the
+same Newton iterations (3.0), and each of geomint's costs ~3 of the floor's: the samples now sit after divisions and
+square roots (58 % of them moving), the latency of chains the floor does not have. Per iteration geomint measures
+the round-off of H and S from their terms (`roundoff.term_scale`, `origin_terms`), keeps Gonzalez's switching
+gains and the noise floor of the quotients, normalises the discrete axial vector and polishes F against dgH and
+dgS (`discrete_field.polish`: three divisions on the chain), solves the Newton matrix by Cramer's rule, and judges
+the corrected iterate with a second evaluation of H and S (`newton._kept_at`). Each guards a hard case of
+docs/hard_cases.md. Two changes of the arithmetic were tried and not taken, as they change the bits for 5 % or
+less: normalising by exact powers of two instead of dividing by the largest component (233 against 244
+ns moving with solve's fixed cost, one process) and keeping the inverse of the Newton matrix with the contraction
+test multiplied out (231). What would close the gap is a step that skips the guards where a cheap test shows them
+idle, held to the per-step exactness tests, with new digests.
 """
 
 
