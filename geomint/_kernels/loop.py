@@ -16,10 +16,11 @@ from collections import namedtuple
 
 import numpy as np
 from numba import njit
+from numba.extending import overload
 
 from .._cache import CACHE
 from .borrow import borrowed
-from .control import FAILED_FACTOR, PULL_BACK_ITER, accept, attempt, now, on_rejection, propose, traits
+from .control import FAILED_FACTOR, PULL_BACK_ITER, Control, accept, attempt, now, on_rejection, propose, traits
 from .jit import hot, inner
 from .layout import (
     C_COUNT,
@@ -140,11 +141,56 @@ def _attempted(
     )
 
 
+# (the rare paths' ``try``s are in functions of their own: ``run``'s compile time grows faster than its blocks)
 @inner
 def _values(model, buf, x, lazy, S_x):
-    """H and S at ``x`` (S as given where the run is not lazy)."""
-    at = point(buf, x)
-    return model.H(at, model.params), (model.S(at, model.params) if lazy else S_x)
+    """H and S at ``x`` (S as given where the run is not lazy); NaN where an inlined user function raised."""
+    H_x, S_given = np.nan, np.nan
+    try:
+        at = point(buf, x)
+        H_x, S_given = model.H(at, model.params), (model.S(at, model.params) if lazy else S_x)
+    except Exception:  # noqa: BLE001 - as not finite
+        pass
+    return H_x, S_given
+
+
+@inner
+def _culprit(model, buf, x, hamiltonian):
+    """The user function that is not finite at ``x`` (``state.culprit_of``); 0 where one raised instead."""
+    culprit = 0
+    try:
+        culprit = culprit_of(model, buf, x, hamiltonian)
+    except Exception:  # noqa: BLE001 - the step's own failure stands
+        pass
+    return culprit
+
+
+def onto_anchor(control, model, buf, x, H_x, S_x, anchor, S_cap, work):
+    """An adaptive step that kept (nearly) its own energy, pulled back onto the anchor's level set
+    (``_pulled_back``); compiled only for the controller that can take such steps (``control.Control``)."""
+    return _pulled_back(model, buf, x, H_x, S_x, anchor, S_cap, work)
+
+
+@overload(onto_anchor)
+def _onto_anchor_typed(control, model, buf, x, H_x, S_x, anchor, S_cap, work):
+    if control.instance_class is Control:
+        return lambda control, model, buf, x, H_x, S_x, anchor, S_cap, work: _pulled_back(
+            model, buf, x, H_x, S_x, anchor, S_cap, work
+        )
+    return lambda control, model, buf, x, H_x, S_x, anchor, S_cap, work: (x, H_x, S_x, 0, False)
+
+
+@inner
+def _pulled_back(model, buf, x, H_x, S_x, anchor, S_cap, work):
+    """``state.pulled_back`` onto the anchor's level set: ``(x', H', S', evaluations, raised)``, ``x`` as it was
+    where an inlined user function raised."""
+    x_back, H_back, S_back, evaluations, raised = x, H_x, S_x, 0, True
+    try:
+        x_back, H_back, S_back, evaluations = pulled_back(model, buf, x, H_x, S_x, anchor, S_cap, PULL_BACK_ITER, work)
+        raised = False
+    except Exception:  # noqa: BLE001 - an inlined user function raised
+        pass
+    return x_back, H_back, S_back, evaluations, raised
 
 
 @njit(cache=CACHE, error_model="numpy")
@@ -262,31 +308,20 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
                 after_rejection = True
                 continue
         if status == OK and adaptive and H_target != anchor:  # kept (nearly) its own energy: back onto the anchor's
-            ev = 0
-            S_cap = max(S_x, S_new)
-            try:
-                x_new, H_new, S_new, ev = pulled_back(
-                    model, buf, x_new, H_new, S_new, anchor, S_cap, PULL_BACK_ITER, work
-                )
-            except Exception:  # noqa: BLE001 - an inlined user function raised
-                status, culprit = USER_RAISED, 0
+            x_new, H_new, S_new, ev, raised = onto_anchor(
+                control, model, buf, x_new, H_new, S_new, anchor, max(S_x, S_new), work
+            )
             evaluations += ev
+            if raised:
+                status, culprit = USER_RAISED, 0
         if status != OK:
             if status == NON_FINITE and culprit == 0:
-                at = x_new if finite(x_new) else x
-                try:
-                    culprit = culprit_of(model, buf, at, hamiltonian)
-                except Exception:  # noqa: BLE001 - an inlined user function raised: the step's own failure stands
-                    pass
+                culprit = _culprit(model, buf, x_new if finite(x_new) else x, hamiltonian)
             counters[STATUS] = status
             counters[FAILED_STEP] = counters[STEPS] + steps + 1
             counters[CULPRIT] = culprit
             if out.t[counters[ROWS] - 1] != t_now:  # the last good state was not saved yet
-                H_last, S_last = np.nan, np.nan
-                try:
-                    H_last, S_last = _values(model, buf, x, lazy, S_x)
-                except Exception:  # noqa: BLE001 - an inlined user function raised: as not finite
-                    pass
+                H_last, S_last = _values(model, buf, x, lazy, S_x)
                 if np.isfinite(H_last) and np.isfinite(S_last):
                     _save(out, t_now, x, H_last, S_last)
                 else:  # lazy: H and S were last checked at the last saved row, and they went non-finite since
