@@ -772,8 +772,11 @@ Reading these tables (the run this page was written from):
 - **Each floor is a floor**: exact at every step of its run (no step failing, |ΔH| within 2.4 ulps of its terms, S
   never against its direction), on geomint's trajectory (final states within 3·10⁻¹¹) and as close to the step's
   root as geomint's solvers within that measure's noise (10⁴ × closer on the pendula). geomint's automatic
-  choice costs 4.5 (gas containers), 5.5 (Euler), 7.3 (random Fish) and 4.6 (pendula) × the floor, each the
-  median of 5 fresh processes whose ratios agree within 10 % but for one loaded process on the gas containers.
+  choice costs 1.9 (gas containers), 3.2 (Euler), 6.7 (random Fish) and 4.2 (pendula) × the floor, each the
+  median of 5 fresh processes whose ratios agree within 5 %. Before the step loop stopped counting references
+  to its arrays (docs/engine_speed.md, reading) they were 4.5, 5.5, 7.3 and 4.6: the counts weighed most where a
+  field is cheap. The figures in the bullets below are from that earlier run where they differ from the
+  tables above, which are this run's.
 - **Iterations (×2.6 on the gas containers and the pendula).** The floor forms a fresh Jacobian at every step
   where the system makes it cost about one iteration: the 4 × 4 by differences, and the pendula's 2 × 2 blocks
   and s row from the zero pattern of L and M, O(n); from the linearly implicit start it needs 3.7 iterations.
