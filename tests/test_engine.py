@@ -198,3 +198,39 @@ def test_a_program_lists_every_leaf_it_can_run(method, expected):
     run (a row of the program lowered with another leaf's code), so every leaf a row can run is listed."""
     body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
     assert {type(marker).__name__ for marker in method.lower(body).uses} == expected
+
+
+BORROWED = """
+import numpy as np
+from numba.core.runtime import rtsys
+import geomint
+body = geomint.systems.relaxing_rigid_body(eps=0.1)
+for method in (geomint.Gonzalez(), geomint.RK4()):
+    geomint.solve(body, [0.6, 0.0, 0.8], (0.0, 0.1), 0.01, method=method)  # loaded or compiled
+    X = np.array([[0.6, 0.0, 0.8], [0.0, 0.6, 0.8], [0.8, 0.6, 0.0]])
+    geomint.solve_ensemble(body, X, (0.0, 0.1), 0.01, method=method, threads=2)
+    before = rtsys.get_allocation_stats()
+    for _ in range(5):
+        geomint.solve(body, [0.6, 0.0, 0.8], (0.0, 1.0), 0.01, method=method)
+        geomint.solve_ensemble(body, X, (0.0, 1.0), 0.01, method=method, threads=2)
+    after = rtsys.get_allocation_stats()
+    print(after.alloc - before.alloc, (after.alloc - after.free) - (before.alloc - before.free))
+"""
+
+
+@pytest.mark.skipif(numba.config.DISABLE_JIT, reason="compiled code only")
+def test_the_loop_borrows_its_arrays_and_frees_what_it_allocates():
+    """The loop holds its arrays uncounted (``_kernels/borrow.py``): every allocation the compiled code makes
+    (the loop's own buffer, once per call) is freed, none is leaked by a count taken and never dropped.  Counted
+    by numba's allocation statistics in a process of its own (they are switched on before numba loads)."""
+    out = subprocess.run(
+        [sys.executable, "-c", BORROWED],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**os.environ, "NUMBA_NRT_STATS": "1"},
+    )
+    assert out.returncode == 0, out.stderr
+    for line in out.stdout.splitlines():
+        allocated, kept = (int(n) for n in line.split())
+        assert allocated >= 5 and kept == 0, out.stdout
