@@ -11,9 +11,10 @@ Python and C wrappers numba otherwise builds for each function, which are
 never called.  (The few kernels numba inlines, ``inline="always"``, are
 never compiled on their own and need neither.)
 
-``hot`` is ``inner`` for the steps the loop calls once per step
-(``runge_kutta.rk4_step``, ``dg_step.discrete_gradient_step``, the
-composition's ``composed_step`` and ``_composition``): numba compiles each
+``hot`` is ``inner`` for what the loop runs at every step or iteration
+(``loop._attempted``, ``runge_kutta.rk4_step``, ``dg_step.discrete_gradient_step``,
+the composition's ``composed_step`` and ``_composition``, ``newton.newton`` and
+the discrete field with ``polish`` and ``discrete_axial``): numba compiles each
 once, as any ``inner`` kernel, and marks it for LLVM to inline into its
 callers (numba's ``forceinline``), sparing the thirty-odd scalar arguments
 and the result through memory of a call.  ``forceinline`` is inherited by
