@@ -204,15 +204,16 @@ BORROWED = """
 import numpy as np
 from numba.core.runtime import rtsys
 import geomint
-body = geomint.systems.relaxing_rigid_body(eps=0.1)
-for method in (geomint.Gonzalez(), geomint.RK4()):
-    geomint.solve(body, [0.6, 0.0, 0.8], (0.0, 0.1), 0.01, method=method)  # loaded or compiled
-    X = np.array([[0.6, 0.0, 0.8], [0.0, 0.6, 0.8], [0.8, 0.6, 0.0]])
-    geomint.solve_ensemble(body, X, (0.0, 0.1), 0.01, method=method, threads=2)
+body, x0 = geomint.systems.relaxing_rigid_body(eps=0.1), [0.6, 0.0, 0.8]
+gas, y0 = geomint.systems.gas_containers(), [1.5, 0.0, 2.0, 2.0]  # R^n, n = 4
+for system, start, method in ((body, x0, geomint.Gonzalez()), (body, x0, geomint.RK4()), (gas, y0, geomint.Gonzalez())):
+    X = np.array([start, np.roll(start, 1), np.roll(start, 2)])
+    geomint.solve(system, start, (0.0, 0.1), 0.01, method=method)  # loaded or compiled
+    geomint.solve_ensemble(system, X, (0.0, 0.1), 0.01, method=method, threads=2)
     before = rtsys.get_allocation_stats()
     for _ in range(5):
-        geomint.solve(body, [0.6, 0.0, 0.8], (0.0, 1.0), 0.01, method=method)
-        geomint.solve_ensemble(body, X, (0.0, 1.0), 0.01, method=method, threads=2)
+        geomint.solve(system, start, (0.0, 1.0), 0.01, method=method)
+        geomint.solve_ensemble(system, X, (0.0, 1.0), 0.01, method=method, threads=2)
     after = rtsys.get_allocation_stats()
     print(after.alloc - before.alloc, (after.alloc - after.free) - (before.alloc - before.free))
 """
@@ -221,8 +222,8 @@ for method in (geomint.Gonzalez(), geomint.RK4()):
 @pytest.mark.skipif(numba.config.DISABLE_JIT, reason="compiled code only")
 def test_the_loop_borrows_its_arrays_and_frees_what_it_allocates():
     """The loop holds its arrays uncounted (``_kernels/borrow.py``): every allocation the compiled code makes
-    (the loop's own buffer, once per call) is freed, none is leaked by a count taken and never dropped.  Counted
-    by numba's allocation statistics in a process of its own (they are switched on before numba loads)."""
+    (the loop's own buffer, once per call) is freed, none is leaked by a count taken and never dropped, in R^3 and
+    in R^n.  Counted by numba's allocation statistics in a process of its own (switched on before numba loads)."""
     out = subprocess.run(
         [sys.executable, "-c", BORROWED],
         capture_output=True,

@@ -95,8 +95,6 @@ def _attempted(
     h,
     work,
     clock,
-    adaptive,
-    lazy,
     saving,
 ):
     """One attempted step from ``x`` as ``run`` takes it: ``(H_x, H_target, iterations, evaluations, residual,
@@ -104,6 +102,7 @@ def _attempted(
     checked finite, H and S evaluated at it where the step did not give them (``run``'s docstring); ``H_x`` is
     evaluated where an adaptive anchor's reach is short of 1 and not known yet."""
     p = model.params
+    adaptive, lazy = traits(control)[:2]
     H_target = anchor
     if adaptive and clock[C_REACH] < 1.0:
         if np.isnan(H_x):
@@ -279,8 +278,6 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
                     h,
                     work,
                     clock,
-                    adaptive,
-                    lazy,
                     saving,
                 )
             )
