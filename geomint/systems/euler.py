@@ -24,8 +24,9 @@ from ..model.system_n import MetriplecticSystemN
 if TYPE_CHECKING:
     import numpy.typing as npt
 
-#: params[0]: which bracket
+#: params[0]: which bracket; then the tables of P (``_tables``), ``_PAIR`` numbers per ordered pair of half modes
 ZEITLIN, GALERKIN = 0.0, 1.0
+_TABLES, _PAIR = 1, 6
 
 
 @njit(cache=CACHE)
@@ -53,20 +54,21 @@ def _wrap(m, N, M):
 
 
 @njit(cache=CACHE)
-def _coefficient(m1, m2, x, N, M, galerkin):
-    """``(Re, Im)`` of ``omega_m`` for any m: wrapped modulo N (Zeitlin) or 0 outside the box (Galerkin)."""
+def _half(m1, m2, N, M, galerkin):
+    """Where ``omega_m`` is held, for any m: ``(i, sign)`` with ``omega_m = x[2 i] + sign * 1j * x[2 i + 1]``, or
+    ``(-1, 0.0)`` for no coefficient (m = 0, or outside the box for Galerkin); m wrapped modulo N for Zeitlin."""
     if galerkin:
         if abs(m1) > M or abs(m2) > M:
-            return 0.0, 0.0
+            return -1, 0.0
     else:
         m1, m2 = _wrap(m1, N, M), _wrap(m2, N, M)
     i = _index(m1, m2, M)
     if i >= 0:
-        return x[2 * i], x[2 * i + 1]
+        return i, 1.0
     i = _index(-m1, -m2, M)
     if i >= 0:
-        return x[2 * i], -x[2 * i + 1]
-    return 0.0, 0.0  # m = 0
+        return i, -1.0
+    return -1, 0.0  # m = 0
 
 
 @njit(cache=CACHE)
@@ -125,19 +127,18 @@ def _modes(M):
 
 
 @njit(cache=CACHE)
-def _P(x, p):
-    """The Lie-Poisson matrix: ``P(x) grad F = (1/2) B(grad F, omega)`` in these coordinates, where
-    ``B(v, omega)_k = sum_{p + q = k} c(p, q) psi_p omega_q`` with ``psi_p`` the half-mode coordinates of v.
-    Block (k, p) from ``omega_{k-p}`` (``c_1 = c(p, k - p)``) and ``omega_{k+p}`` (``c_2 = c(-p, k + p)``)."""
-    N, M = _size(x)
-    galerkin = p[0] == GALERKIN
+def _tables(N, galerkin):
+    """The structure of P, once per system: for each ordered pair (k, p) of half modes, ``_PAIR`` numbers (row-major
+    over (k, p), the diagonal pairs unused): where ``omega_{k-p}`` is held and the sign of its imaginary part
+    (``_half``), ``c_1 = c(p, k - p)``; the same for ``omega_{k+p}``, ``c_2 = c(-p, k + p)``."""
+    M = (N - 1) // 2
     modes = _modes(M)
     h = modes.shape[0]
     sines = np.empty(N)  # (N / 2 pi) sin(2 pi r / N) at r + M, odd in r exactly
     for r in range(0, M + 1):
         s = N / (2.0 * np.pi) * np.sin(2.0 * np.pi * r / N)
         sines[M + r], sines[M - r] = s, -s
-    out = np.zeros((2 * h, 2 * h))
+    out = np.zeros((h, h, _PAIR))
     for i in range(h):
         k1, k2 = modes[i, 0], modes[i, 1]
         for j in range(h):
@@ -150,8 +151,39 @@ def _P(x, p):
                 c1, c2 = float(cross1), float(cross2)
             else:
                 c1, c2 = sines[M + _wrap(cross1, N, M)], sines[M + _wrap(cross2, N, M)]
-            a1, b1 = _coefficient(k1 - p1, k2 - p2, x, N, M, galerkin)
-            a2, b2 = _coefficient(k1 + p1, k2 + p2, x, N, M, galerkin)
+            at1, sign1 = _half(k1 - p1, k2 - p2, N, M, galerkin)
+            at2, sign2 = _half(k1 + p1, k2 + p2, N, M, galerkin)
+            out[i, j, 0], out[i, j, 1], out[i, j, 2] = at1, sign1, c1
+            out[i, j, 3], out[i, j, 4], out[i, j, 5] = at2, sign2, c2
+    return out.reshape(h * h * _PAIR)
+
+
+@njit(cache=CACHE)
+def _held(x, at, sign):
+    """``(Re, Im)`` of the coefficient a table entry points to (``_half``)."""
+    if at < 0:
+        return 0.0, 0.0
+    i = int(at)
+    return x[2 * i], sign * x[2 * i + 1]
+
+
+@njit(cache=CACHE)
+def _P(x, p):
+    """The Lie-Poisson matrix: ``P(x) grad F = (1/2) B(grad F, omega)`` in these coordinates, where
+    ``B(v, omega)_k = sum_{p + q = k} c(p, q) psi_p omega_q`` with ``psi_p`` the half-mode coordinates of v.
+    Block (k, p) from ``omega_{k-p}`` (``c_1 = c(p, k - p)``) and ``omega_{k+p}`` (``c_2 = c(-p, k + p)``), read
+    through the tables ``params[_TABLES:]`` (``_tables``): O(n^2)."""
+    n = x.shape[0]
+    h = n // 2
+    out = np.zeros((n, n))
+    for i in range(h):
+        for j in range(h):
+            if i == j:
+                continue
+            t = _TABLES + (i * h + j) * _PAIR
+            a1, b1 = _held(x, p[t], p[t + 1])
+            a2, b2 = _held(x, p[t + 3], p[t + 4])
+            c1, c2 = p[t + 2], p[t + 5]
             out[2 * i, 2 * j] = 0.5 * (c1 * a1 + c2 * a2)
             out[2 * i, 2 * j + 1] = 0.5 * (c2 * b2 - c1 * b1)
             out[2 * i + 1, 2 * j] = 0.5 * (c1 * b1 + c2 * b2)
@@ -174,7 +206,7 @@ def _euler(N, eps, kind, label):
         grad_S=_grad_S,
         P=_P,
         eps=eps,
-        params=[kind],
+        params=np.concatenate([[kind], _tables(N, kind == GALERKIN)]),
         dim=N * N - 1,
         name=f"euler_{label}_N{N}",
         variables=euler_variables(N),

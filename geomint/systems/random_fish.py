@@ -56,14 +56,34 @@ def _grad_S(x, p):
 
 
 @njit(cache=CACHE)
+def _K(x, p):
+    """``K = A + sum_k x_k B_k``: its upper triangle, ``n^3 / 2`` multiply-adds in the order of k, each row's segment
+    a contiguous loop; the lower triangle minus it (A and the B_k are skew, so that is K in floating point too)."""
+    n = x.shape[0]
+    at = _D + n
+    K = np.zeros((n, n))
+    for i in range(n):
+        for j in range(i + 1, n):
+            K[i, j] = p[at + i * n + j]
+    flat = K.reshape(n * n)
+    for k in range(n):
+        xk = x[k]
+        B = p[at + n * n * (k + 1) : at + n * n * (k + 2)]
+        for i in range(n - 1):
+            segment, source = flat[i * n + i + 1 : i * n + n], B[i * n + i + 1 : i * n + n]
+            for m in range(n - 1 - i):
+                segment[m] += xk * source[m]
+    for i in range(n):
+        for j in range(i + 1, n):
+            K[j, i] = -K[i, j]
+    return K
+
+
+@njit(cache=CACHE)
 def _P(x, p):
     """``(Q - Q^T) / 2``, ``Q = Pi K Pi``, ``K = A + sum_k x_k B_k``: skew in floating point too."""
     n = x.shape[0]
-    at = _D + n
-    K = p[at : at + n * n].reshape((n, n)).copy()
-    for k in range(n):
-        start = at + n * n * (k + 1)
-        K += x[k] * p[start : start + n * n].reshape((n, n))
+    K = _K(x, p)
     s = _grad_S(x, p)
     norm = np.sqrt(np.sum(s * s))
     if norm > 0.0:
@@ -89,7 +109,8 @@ def random_fish(n: int = 6, seed: int = 0, eps: float = 1.0) -> MetriplecticSyst
     skew and ``P grad S = 0`` exactly (the projection), and depends on x; H and S
     are not quadratic.  The paper's metric g.  All random numbers are in ``params``
     (2 coefficients, D, A, then B_1 ... B_n flattened: ``n^3 + n^2 + n + 2`` numbers),
-    so one compilation serves every n and seed; ``n <= 256``.
+    so one compilation serves every n and seed; ``n <= 256``.  K is formed from the upper
+    triangles of A and the B_k (new ``params`` through ``with_`` must keep them skew).
 
     Reference: the construction of docs/engine_rn.md, "Reference problems"; Fish form as in the paper, section 1.
     """
