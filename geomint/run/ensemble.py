@@ -497,6 +497,8 @@ def _per_trajectory_eps(system, eps, n):
 
 def _refused(system, X0, params):
     """Per start: None if it can run, else why not (not finite; H or S not finite or raising there)."""
+    if _all_can_run(system, X0, params):
+        return [None] * len(X0)
     f = system.functions
     reasons = []
     for x, p in zip(X0, params):
@@ -514,6 +516,21 @@ def _refused(system, X0, params):
             else f"H and S must be finite at x0; at x0 = {x.tolist()} H = {H0!r}, S = {S0!r}; not run."
         )
     return reasons
+
+
+def _all_can_run(system, X0, params):
+    """Whether every start can run, judged at once: finite, and H and S finite there from one compiled evaluation
+    (in R^3, every start with the system's params).  False where one cannot, or where this cannot tell (R^n,
+    other params, a function raising): ``_refused`` then goes through the starts one by one for the reasons."""
+    if isinstance(system, MetriplecticSystemN) or not np.all(params == system.params):
+        return False
+    if not np.all(np.isfinite(X0)):
+        return False
+    try:
+        H, S = system._evaluate(X0)[:2]
+    except Exception:  # noqa: BLE001 - the user's function: the starts one by one say which and why
+        return False
+    return bool(np.all(np.isfinite(H)) and np.all(np.isfinite(S)))
 
 
 # -- the local backend -------------------------------------------------------------------------------
@@ -724,7 +741,6 @@ def _rerun_serially(system, step_data, plan, params, origins, eps, arrays, part)
 
 def _collect(system, integrator, X0, params, eps, plan, arrays, reasons, raised_by):
     t, x, H, S, counters, residuals = arrays[_T:_CLOCKS]
-    n = len(X0)
     row_count = counters[:, _layout.ROWS].copy()
     status = counters[:, _layout.STATUS].copy()
     keep = plan.kept(t, row_count, status)
@@ -737,7 +753,15 @@ def _collect(system, integrator, X0, params, eps, plan, arrays, reasons, raised_
             a[np.arange(a.shape[1]) >= row_count[:, None]] = np.nan
     used = max(1, int(row_count.max()))
     messages = []
-    for i in range(n):
+    reached = {}  # a trajectory that reached t_end: its message is that of its steps and rejections
+    steps, rejected, ok = counters[:, _layout.STEPS].tolist(), counters[:, _layout.REJECTED].tolist(), int(Status.OK)
+    for i, code in enumerate(status.tolist()):
+        if code == ok and reasons[i] is None:
+            key = (steps[i], rejected[i])
+            if key not in reached:
+                reached[key] = run_message(ok, None, t[i, : row_count[i]], 0.0, 0.0, counters[i], 0.0, integrator)
+            messages.append(reached[key])
+            continue
         if reasons[i] is not None:
             messages.append(reasons[i])
             x[i, 0], row_count[i] = X0[i], 1
