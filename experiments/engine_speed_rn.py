@@ -772,25 +772,31 @@ Reading these tables (the run this page was written from):
 - **Each floor is a floor**: exact at every step of its run (no step failing, |ΔH| within 2.4 ulps of its terms, S
   never against its direction), on geomint's trajectory (final states within 3·10⁻¹¹) and as close to the step's
   root as geomint's solvers within that measure's noise (10⁴ × closer on the pendula). geomint's automatic
-  choice costs 1.9 (gas containers), 3.2 (Euler), 6.7 (random Fish) and 4.2 (pendula) × the floor, each the
-  median of 5 fresh processes whose ratios agree within 5 %. Before the step loop stopped counting references
-  to its arrays (docs/engine_speed.md, reading) they were 4.5, 5.5, 7.3 and 4.6: the counts weighed most where a
-  field is cheap. The figures in the bullets below are from that earlier run where they differ from the
-  tables above, which are this run's.
+  choice costs 2.0 (gas containers), 1.4 (Euler), 2.0 (random Fish) and 4.3 (pendula) × the floor, each the
+  median of 5 fresh processes (the machine noisier than for the run before, whose ratios for the gas containers
+  agreed within 5 % at 1.9). Before the step loop stopped counting references to its arrays (docs/engine_speed.md,
+  reading) they were 4.5, 5.5, 7.3 and 4.6; before the catalogue's Euler and random Fish P were written at the
+  cost of their structure (below), Euler and random Fish were 3.2 and 6.7. The figures in the bullets below are
+  from earlier runs where they differ from the tables above, which are this run's.
 - **Iterations (×2.6 on the gas containers and the pendula).** The floor forms a fresh Jacobian at every step
   where the system makes it cost about one iteration: the 4 × 4 by differences, and the pendula's 2 × 2 blocks
   and s row from the zero pattern of L and M, O(n); from the linearly implicit start it needs 3.7 iterations.
   geomint knows neither that pattern nor what a Jacobian costs beyond n + 1 field evaluations and a dense LU, so
-  its automatic choice ends in the fixed point (9.5, 9.6 iterations), and its Newton, forced, costs 3.7 and 14 ×
+  its automatic choice ends in the fixed point (9.5, 9.6 iterations), and its Newton, forced, costs 1.7 and 14 ×
   the floor (on the pendula O(n³) a refresh at n = 257). This is the issue's point: the zero pattern, which
   formulas know symbolically and a library could probe. On Euler and the random Fish system the iterations nearly
-  agree (×1.15, ×1.2).
-- **User functions that form dense matrices (Euler ×7.6, random Fish ×4.3 a field).** Euler's P is formed as a
-  24 × 24 matrix at every call, each entry through modular index lookups, allocated, then multiplied: 5.2 of
-  geomint's 6.5 µs a field, where the floor applies P from index tables built once and its whole field takes
-  0.86 µs. The random Fish system's P (`K += x[k] * B_k` allocating an n × n temporary for each of the 64 Bₖ,
-  K − Kᵀ, the projection by BLAS products) is 198 of 201 µs; the floor forms K over its upper triangle without
-  temporaries (A and Bₖ are skew) in 47 µs. There the gap is the user's function, not the engine.
+  agree (×1.15, ×1.2). On the random Fish system the automatic choice (2.0) costs more than the fixed point
+  forced (1.5): its first step takes Newton (n = 64 is not above `step_n.FIRST_NEWTON_N`), and after a first
+  fixed-point try of 18 iterations it keeps Newton for 8 steps, priced with `REFRESHES_ASSUMED` = 0.05 refreshes a
+  step where this system refreshes ~0.3 times (65 evaluations of an O(n³) field each).
+- **User functions that form dense matrices.** The catalogue's Euler P was formed as a 24 × 24 matrix at every
+  call with each entry through modular index lookups (5.2 of geomint's 6.5 µs a field), and the random Fish P
+  added each of its 64 `x_k B_k` through an allocated n × n temporary (198 of 201 µs). Both now form the same
+  matrices, bit for bit, at the cost of their structure, as the floors apply them: Euler's from index tables
+  built once with the system (in its `params`, `systems.euler._tables`), the random Fish K over its upper
+  triangle without temporaries (A and Bₖ are skew), each row's segment a contiguous loop. A field now costs 2.1
+  µs on Euler (its user functions 0.8) against the floor's 0.9, and 66 µs on the random Fish system (its
+  user functions 62) against 54: the gap left there is geomint's, not the user's.
 - **First-class calls: not a measurable part.** Called statically, the same functions save 39 ns an iteration
   at n = 4 (of 201), 32 on Euler (of 5,158), 49 on the pendula (of 1,520) and 1.5 µs on the random Fish system
   (of 198 µs, within its noise).
