@@ -375,12 +375,24 @@ three divisions on the chain), solves the Newton matrix by Cramer's rule, and ju
 second evaluation of H and S (`newton._kept_at`). Each guards a hard case of docs/hard_cases.md. The polish now runs
 only where the rounding it removes could move H or S by an ulp of their terms (`discrete_field.polish_moves`, a bound
 of the cross products' rounding: docs/theory.md, "F polished"): a stiff step is polished, a step well inside the
-time scale, as here (h = 0.01), is not. That took Gonzalez from 222 to 153 ns moving and 72 to 56 at rest (one
-process, solve's fixed cost subtracted), with other bits (new digests, `tests/test_digests.py`) and the per-step
-exactness tests unchanged; `tests/test_discrete_gradients.py` holds the bound to exact arithmetic. Tried and not
-taken: the axial vector as `(J . dgS) / (dgS . dgS) dgS` where no product under- or overflows (a further 4 %, but a
-run scaled by a power of two no longer follows its unscaled run bit for bit: `tests/test_hard_cases.py`,
-scaled states), normalising by exact powers of two, keeping the inverse of the Newton matrix (each 5 % or less).
+time scale, as here (h = 0.01), is not. That took Gonzalez from 222 to 161 ns moving (one process, interleaved with
+the floor at 93 and 89 ns, solve's fixed cost subtracted), with other bits (new digests, `tests/test_digests.py`)
+and the per-step exactness tests unchanged; `tests/test_discrete_gradients.py` holds the bound to exact arithmetic.
+Tried and not taken: the axial vector as `(J . dgS) / (dgS . dgS) dgS` where no product under- or overflows (a
+further 4 %, but a run scaled by a power of two no longer follows its unscaled run to 1e-13:
+`tests/test_hard_cases.py`, scaled states), normalising by exact powers of two, keeping the inverse of the Newton
+matrix (each 5 % or less). The ensemble gained besides from `solve_ensemble` judging its starts runnable in one
+compiled evaluation and writing the message of every trajectory that reached t_end once per step count: its
+Python took 16 µs a trajectory, 14 % of a 10⁴ × 10³ run on 2 threads.
+
+**How noisy this machine is.** On the day of this run the geomint figures moved between fresh processes by up to
+30 % (Gonzalez moving 191 to 272 ns in four processes of the same code, minutes apart), the floor's by 2 %: the
+floor keeps its state in registers, geomint's step reads and writes its workspace and the user's parameters, and
+the shared machine's caches are not its own. The medians over 5 processes above are the figures; a single
+process is not. Three runs of this script on that day with the same R³ code (medians of 5 processes each):
+Gonzalez / floor moving 1.92, 2.01, 1.95; at rest 1.54, 1.78, 1.77; RK4 / inlined RK4 1.55, 1.73, 1.70;
+solve_ensemble / prange 1.99, 2.24, 2.22; the floors themselves 90, 106 and 103 ns moving. The RK4 step and loop
+were not changed that day: the code before it measured 1.51 and 1.46 interleaved with it, the day before 1.41.
 """
 
 
