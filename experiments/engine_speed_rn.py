@@ -772,25 +772,37 @@ Reading these tables (the run this page was written from):
 - **Each floor is a floor**: exact at every step of its run (no step failing, |ΔH| within 2.4 ulps of its terms, S
   never against its direction), on geomint's trajectory (final states within 3·10⁻¹¹) and as close to the step's
   root as geomint's solvers within that measure's noise (10⁴ × closer on the pendula). geomint's automatic
-  choice costs 1.9 (gas containers), 3.2 (Euler), 6.7 (random Fish) and 4.2 (pendula) × the floor, each the
-  median of 5 fresh processes whose ratios agree within 5 %. Before the step loop stopped counting references
-  to its arrays (docs/engine_speed.md, reading) they were 4.5, 5.5, 7.3 and 4.6: the counts weighed most where a
-  field is cheap. The figures in the bullets below are from that earlier run where they differ from the
-  tables above, which are this run's.
-- **Iterations (×2.6 on the gas containers and the pendula).** The floor forms a fresh Jacobian at every step
-  where the system makes it cost about one iteration: the 4 × 4 by differences, and the pendula's 2 × 2 blocks
-  and s row from the zero pattern of L and M, O(n); from the linearly implicit start it needs 3.7 iterations.
-  geomint knows neither that pattern nor what a Jacobian costs beyond n + 1 field evaluations and a dense LU, so
-  its automatic choice ends in the fixed point (9.5, 9.6 iterations), and its Newton, forced, costs 3.7 and 14 ×
-  the floor (on the pendula O(n³) a refresh at n = 257). This is the issue's point: the zero pattern, which
-  formulas know symbolically and a library could probe. On Euler and the random Fish system the iterations nearly
-  agree (×1.15, ×1.2).
-- **User functions that form dense matrices (Euler ×7.6, random Fish ×4.3 a field).** Euler's P is formed as a
-  24 × 24 matrix at every call, each entry through modular index lookups, allocated, then multiplied: 5.2 of
-  geomint's 6.5 µs a field, where the floor applies P from index tables built once and its whole field takes
-  0.86 µs. The random Fish system's P (`K += x[k] * B_k` allocating an n × n temporary for each of the 64 Bₖ,
-  K − Kᵀ, the projection by BLAS products) is 198 of 201 µs; the floor forms K over its upper triangle without
-  temporaries (A and Bₖ are skew) in 47 µs. There the gap is the user's function, not the engine.
+  choice costs 1.76 (gas containers), 1.45 (Euler), 1.55 (random Fish) and 4.26 (pendula) × the floor (medians
+  of 5 fresh processes, the machine noisier than in earlier runs: the floors themselves vary by 15 %). Before the
+  step loop stopped counting references to its arrays (docs/engine_speed.md, reading) they were 4.5, 5.5, 7.3 and
+  4.6; before the catalogue's Euler and random Fish P were written at the cost of their structure (below), 1.9,
+  3.2, 6.7 and 4.2; before the solver choice priced the field's fixed part and Newton's refreshes (below), 2.05 and
+  2.02 on the gas containers and the random Fish system. The figures in the bullets below are from earlier runs
+  where they differ from the tables above, which are this run's.
+- **Iterations (×2.6 on the pendula).** The floor forms a fresh Jacobian at every step where the system makes it
+  cost about one iteration: the 4 × 4 by differences, and the pendula's 2 × 2 blocks and s row from the zero
+  pattern of L and M, O(n); from the linearly implicit start it needs 3.7 iterations. geomint does not know that
+  pattern, so a Jacobian costs it n + 1 field evaluations and a dense LU: on the pendula its automatic choice ends
+  in the fixed point (9.6 iterations), and its Newton, forced, costs 14 × the floor (O(n³) a refresh at n = 257).
+  This is the issue's point: the zero pattern, which formulas know symbolically and a library could probe. On
+  the other systems the iterations nearly agree (×1.9 on the gas containers, ×1.1 on Euler, ×1.3 on random Fish).
+- **The solver choice's cost model.** It counts field evaluations, a field modelled as 1000 + 4n² flops (matrices)
+  or 1000 + 100n (actions); the fixed 1000, added in this run, is the field's own work around the user's
+  functions (the last column but one below: ~1.1 µs at n = 4 and 24). Without it a Newton iteration at n = 4 was
+  priced at 1.5 fields where it costs barely more than one, and the gas containers stayed in the fixed point (9.5
+  iterations, 2.05 × the floor) where Newton (7.0) costs 1.8. Newton's refreshes are assumed at one per probe
+  interval of 8 steps until measured (was SUNDIALS' one per 20): on the random Fish system, after a first
+  fixed-point try of 14–18 iterations, a Newton step priced at 0.05 refreshes (65 evaluations of an O(n³) field
+  each) looked cheaper and took the next 8 steps at ~0.3 refreshes each (2.02 × the floor); now it keeps the
+  fixed point (1.55).
+- **User functions that form dense matrices.** The catalogue's Euler P was formed as a 24 × 24 matrix at every
+  call with each entry through modular index lookups (5.2 of geomint's 6.5 µs a field), and the random Fish P
+  added each of its 64 `x_k B_k` through an allocated n × n temporary (198 of 201 µs). Both now form the same
+  matrices, bit for bit, at the cost of their structure, as the floors apply them: Euler's from index tables
+  built once with the system (in its `params`, `systems.euler._tables`), the random Fish K over its upper
+  triangle without temporaries (A and Bₖ are skew), each row's segment a contiguous loop. A field now costs 2.1
+  µs on Euler (its user functions 0.8) against the floor's 0.9, and 66 µs on the random Fish system (its
+  user functions 62) against 54: the gap left there is geomint's, not the user's.
 - **First-class calls: not a measurable part.** Called statically, the same functions save 39 ns an iteration
   at n = 4 (of 201), 32 on Euler (of 5,158), 49 on the pendula (of 1,520) and 1.5 µs on the random Fish system
   (of 198 µs, within its noise).
@@ -821,16 +833,15 @@ READING = """
   hand-written floor `pendula_floor`, which is exact at every step too. Given as matrices the same system pays O(n²) per
   iteration (×13 at n = 257), and Newton O(n³) per refresh (×3 the fixed point at n = 257).
 - **Newton wins** where a field evaluation costs about as much as the solve (matrices) and the fixed point
-  needs more iterations: Euler (n = 24, 48: fixed point / Newton 1.1–1.2, 1.4 at h = 0.2), the pendula as
-  matrices at n = 17 (1.5), random Fish at n = 4 (1.1) and wherever (h/2)|Dξ| grows past ≈ 0.1
-  (the crossover tables: 1.1–1.5 from rates 0.1–0.2 on).
+  needs more iterations: Euler at n = 48 (fixed point / Newton 1.04; at n = 24 the fixed point, 0.91, since
+  its P costs O(n²) from tables), 1.1 at h = 0.2, the pendula as matrices at n = 17 (1.5), random Fish at n = 4
+  (1.1) and wherever (h/2)|Dξ| grows past ≈ 0.1 (the crossover tables: 1.1–1.5 from rates 0.1–0.2 on).
 - **The fixed point wins** where the solve costs more than the field (actions: 0.33 at n = 257, 0.66 at
   n = 17), where refreshes are frequent and the field dear (random Fish, whose P costs O(n³) per
   evaluation: 0.32 at n = 64), and at small rates (≤ 0.03: 0.4–0.7).
-- **The automatic choice** lands within 10 % of the better forced solver in all but two cases: random Fish
-  at n = 64 (1.5: it starts with Newton's refreshes before the probes find the fixed point) and, in the
-  crossover table, random Fish at h = 0.2–0.5, where it keeps the fixed point at 1.2–1.5 × Newton: its cost
-  model prices a matrix field at 4n² flops, and random Fish's costs O(n³), so the solve is overpriced there.
+- **The automatic choice** lands within 13 % of the better forced solver (random Fish at n = 16: 1.13; in the
+  crossover table random Fish at h = 0.2, where it keeps the fixed point at 1.13 × Newton): its cost model
+  prices a matrix field at 1000 + 4n² flops, and random Fish's costs O(n³), so the solve is overpriced there.
   Euler at n = 1088 runs by the fixed point alone (a Newton refresh: 1089 fields and an O(n³) factorisation).
 - **LAPACK** factors faster than the hand-written elimination from n = 24 (×4–10 from n = 32); below, the
   call costs more than the work.

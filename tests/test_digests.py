@@ -2,8 +2,10 @@
 
 ``tests/data/digests.json`` holds, for every integrator on every catalogue and zoo system, the SHA-256 of a
 fixed-step run's saved ``t, x, H, S`` and status, and of adaptive runs' accepted steps and states, as computed
-by geomint at 0db555e (and 3753d7a, whose kernels and fixed-step paths are those of 0db555e).  Regenerate only
-for a change that is meant to change results: ``python tests/test_digests.py`` (and say why in the commit).
+by geomint at 0db555e (and 3753d7a, whose kernels and fixed-step paths are those of 0db555e), then regenerated once
+for the discrete field's polish taken only where it can move H or S by an ulp (``discrete_field.polish_moves``:
+round-off-level changes of the discrete-gradient steps, issue 30).  Regenerate only for a change that is meant to
+change results: ``python tests/test_digests.py`` (and say why in the commit).
 """
 
 import hashlib

@@ -1,12 +1,19 @@
 """The discrete gradients: the defining identity, consistency, symmetry, the switching rule, AVF exactness."""
 
+from fractions import Fraction
+
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import assume, given, settings, target
+from hypothesis import strategies as st
+from numba import njit
 
 import geomint
 import geomint.testing as gt
+from geomint._kernels.discrete_field import discrete_axial, polish_moves
 from geomint._kernels.discrete_gradient import SWITCH
+from geomint._kernels.field import dissipative
+from geomint._kernels.vec3 import cross, norm_inf
 
 EPS = np.finfo(float).eps
 DISCRETE_GRADIENTS = [
@@ -160,3 +167,70 @@ def test_axial_vector_defined_where_dgS_vanishes(method, z):
     example = geomint.systems.degenerate_example(1)
     _, _, axial = method.discrete_gradients(example, np.array([0.6, 0.0, z]), np.array([0.5, 0.0, 2 * z]))
     np.testing.assert_array_equal(axial, [0.0, 0.0, 0.0])
+
+
+@njit(error_model="numpy")
+def _unpolished(dg_h, dg_s, axial, eps, h, terms_h, terms_s):
+    """The discrete field's F from these parts (``field.dissipative``, the axial vector made parallel to dgS by
+    ``discrete_axial``) as the cross products round it, and whether ``discrete_field.polish_moves`` polishes it."""
+    g, s = (dg_h[0], dg_h[1], dg_h[2]), (dg_s[0], dg_s[1], dg_s[2])
+    j = discrete_axial((axial[0], axial[1], axial[2]), s)
+    F = dissipative(g, s, eps, cross(g, j))
+    return np.array(F), polish_moves(h, eps, norm_inf(j), norm_inf(g), norm_inf(s), terms_h, terms_s)
+
+
+#: the least positive subnormal, 2^-1074
+SMALLEST = Fraction(1, 2**1074)
+
+
+def _exact_dot(u, v):
+    return sum((Fraction(a) * Fraction(b) for a, b in zip(u, v, strict=True)), Fraction(0))
+
+
+def _exact_cross(u, v):
+    u, v = [Fraction(a) for a in u], [Fraction(b) for b in v]
+    return [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+
+
+def _sized(low=-8, high=8):
+    """3-vectors of components in [-2, 2] times 2^k, k in [low, high]."""
+    return st.tuples(st.floats(-2.0, 2.0), st.floats(-2.0, 2.0), st.floats(-2.0, 2.0), st.integers(low, high)).map(
+        lambda v: np.array(v[:3]) * 2.0 ** v[3]
+    )
+
+
+@given(
+    dg_h=_sized(),
+    dg_s=_sized(),
+    axial=_sized(),
+    x=_sized(),
+    eps=st.floats(0.0, 10.0),
+    h=st.tuples(st.floats(-2.0, 2.0).filter(lambda v: v != 0.0), st.integers(-40, 3)).map(lambda v: v[0] * 2.0 ** v[1]),
+)
+@settings(max_examples=300)
+def test_polish_is_skipped_only_where_the_rounding_moves_H_and_S_by_under_an_ulp(dg_h, dg_s, axial, x, eps, h):
+    """Where ``discrete_field.polish_moves`` skips ``polish``, the step ``h F``, F as the cross products round it,
+    moves H and S (``h dgF . F``, in exact arithmetic) by at most an ulp of their terms (``|dgF| . |x|``, the
+    least ``roundoff.term_scale`` gives) beyond the exact field (``F . dgH = 0``,
+    ``F . dgS = -eps |dgH x dgS|^2``): a quarter of what the acceptance allows.  (A move below the least
+    subnormal, where the terms are 0, is none: a float cannot hold it.)"""
+    terms_h, terms_s = float(np.abs(dg_h) @ np.abs(x)), float(np.abs(dg_s) @ np.abs(x))
+    F, moves = _unpolished(dg_h, dg_s, axial, eps, h, terms_h, terms_s)
+    assume(not moves)
+    c = _exact_cross(dg_h, dg_s)
+    rate = -Fraction(eps) * sum((a * a for a in c), Fraction(0))
+    ulp_h, ulp_s = (max(Fraction(EPS) * Fraction(terms), SMALLEST) for terms in (terms_h, terms_s))
+    moved_h, moved_s = abs(Fraction(h) * _exact_dot(F, dg_h)), abs(Fraction(h) * (_exact_dot(F, dg_s) - rate))
+    target(float(max(moved_h / ulp_h, moved_s / ulp_s)))  # towards the worst rounding
+    assert moved_h <= ulp_h
+    assert moved_s <= ulp_s
+
+
+def test_polish_is_skipped_inside_the_time_scale_and_taken_in_a_stiff_step():
+    """The relaxing rigid body (0.5, 1, 1.5), eps = 0.1, at x0 = (0.6, 0, 0.8): not polished at h = 0.01, polished
+    at h = 1 (``polish_moves``; the bound of the test above, on the same kernel)."""
+    x = np.array([0.6, 0.0, 0.8])
+    dg_h, dg_s = np.array([0.5, 1.0, 1.5]) * x, x
+    terms_h, terms_s = float(np.abs(dg_h) @ np.abs(x)), float(np.abs(dg_s) @ np.abs(x))
+    assert not _unpolished(dg_h, dg_s, x, 0.1, 0.01, terms_h, terms_s)[1]
+    assert _unpolished(dg_h, dg_s, x, 0.1, 1.0, terms_h, terms_s)[1]

@@ -111,12 +111,13 @@ def test_the_euler_scene_relaxes_to_within_1e_8_of_the_lowest_shell():
     lowest = np.repeat((euler_modes(N) ** 2).sum(axis=1) == 1, 2)
     x = sol.x_final
     distance = np.linalg.norm(x - np.where(lowest, x, 0.0))
-    assert distance < 1e-8 and distance == pytest.approx(lowest_shell_distance(x), rel=0, abs=0)
+    # the same norm over the same coordinates, summed with and without the zeros in between: ulps apart at most
+    assert distance < 1e-8 and distance == pytest.approx(lowest_shell_distance(x), rel=4 * EPS, abs=0)
     H0 = sol.H[0]
     assert H0 == pytest.approx(1.1375, rel=1e-15) and np.max(np.abs(sol.H - H0)) <= 4 * EPS * H0
     assert sol.S_rises == 0 and abs(sol.S[-1] - H0) <= 4 * EPS * H0
     relaxed = result.summary()["trajectories"][0]
-    assert relaxed["lowest_shell_distance"] == distance and relaxed["S_limit"] == H0
+    assert relaxed["lowest_shell_distance"] == lowest_shell_distance(x) and relaxed["S_limit"] == H0
 
 
 def test_the_dissipative_part_alone_relaxes_at_the_linearised_rate():

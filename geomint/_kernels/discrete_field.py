@@ -19,7 +19,7 @@ from .dispatch import INLINED, by_code
 from .field import dissipative
 from .jit import hot, inner
 from .layout import EPS
-from .roundoff import origin_terms
+from .roundoff import origin_terms, term_scale
 from .vec3 import ZERO, as_vector, axpy, cross, dot, is_finite, load, norm_inf, scale, sub
 
 
@@ -71,6 +71,32 @@ def polish(F, dg_h, dg_s, eps):
     sigma = cross(u, v)
     rate = -(eps * a) * (a * b) * dot(sigma, sigma)  # -eps |dgH x dgS|^2 / b
     return axpy((rate - dot(F, v)) / ww, w, F)
+
+
+#: ``polish`` is skipped where the rounding it removes moves H and S by at most an ulp of their terms, a quarter of
+#: the acceptance's allowance (``newton.ACCEPT_ULPS``): the worst-case factor of ``polish_moves``
+ROUNDING_BOUND = 32.0
+
+
+@hot
+def polish_moves(h, eps, axial_size, size_h, size_s, terms_h, terms_s):
+    """Whether ``polish`` can move H or S by an ulp of their terms (``terms_h``, ``terms_s``): whether the rounding
+    of F's cross products, carried into the step, can.
+
+    Each component of ``F = dgH x Jbar + eps dgH x (dgH x dgS)`` rounds within ``9 eps T_F``,
+    ``T_F = |dgH| (|Jbar| + eps |dgH| |dgS|)`` (infinity norms: 2 eps per cross product of the sizes of its
+    factors, twice that through the nested one); the step ``h F`` then changes H by the rounding along dgH, at
+    most ``27 eps |h| T_F |dgH|``, and S by at most ``27 eps |h| T_F |dgS|`` (the identity
+    ``F(x') - F(x) = dgF . (x' - x)``).  Where both stay within one ulp of the terms (``ROUNDING_BOUND = 32``
+    in place of 27), ``polish`` changes the step by less than the acceptance's round-off allowance: a step well
+    inside the time scale (``|h| |Jbar| |dgH| << H``).  A stiff step, or a non-finite size, is polished.
+    Products are grouped so that they neither overflow nor underflow where the sizes do not (``gain`` is
+    scale-free under ``x -> lam x, h -> h / lam, eps -> eps / lam``).
+    """
+    gain = abs(h) * (axial_size + eps * size_h * size_s)
+    return not (
+        ROUNDING_BOUND * gain * size_h * size_h <= terms_h and ROUNDING_BOUND * gain * size_h * size_s <= terms_s
+    )
 
 
 def _discrete_field_with(discrete_gradient):
@@ -134,7 +160,17 @@ def _discrete_field_with(discrete_gradient):
             axial = as_vector(model.J(buf, p))
             axial_bar = discrete_axial(axial, dg_s)
             noise += noise_h * norm_inf(axial) + (size_h * norm_inf(axial) * noise_s / size_s if size_s > 0.0 else 0.0)
-        F = polish(dissipative(dg_h, dg_s, eps, cross(dg_h, axial_bar)), dg_h, dg_s, eps)
+        F = dissipative(dg_h, dg_s, eps, cross(dg_h, axial_bar))
+        if polish_moves(
+            h,
+            eps,
+            norm_inf(axial_bar),
+            size_h,
+            size_s,
+            term_scale(H_old, H_new, dg_h, x_new, origin_terms(model.origin, 0, x_new)),
+            term_scale(S_old, S_new, dg_s, x_new, origin_terms(model.origin, 4, x_new)),
+        ):
+            F = polish(F, dg_h, dg_s, eps)
         return F, H_new, S_new, dg_h, dg_s, axial_bar, noise
 
     return discrete_field

@@ -133,9 +133,12 @@ MAX_SYMMETRIZED_DIM = 5
 
 
 #: the solvers (``choose_solver``) compare costs in units of one evaluation of the discrete field, modelled as
-#: ``FIELD_COST_MATRIX n^2`` flops where P and M are matrices (forming, applying and sizing P) and
-#: ``FIELD_COST_ACTION n`` where one of them is an action; a Newton iteration adds the solve, 2 n^2 flops, a refresh
-#: n + 1 field evaluations and the factorisation, 2 n^3 / 3 flops (docs/engine_rn_speed.md: the calibration)
+#: ``FIELD_COST_FIXED + FIELD_COST_MATRIX n^2`` flops where P and M are matrices (forming, applying and sizing P) and
+#: ``FIELD_COST_FIXED + FIELD_COST_ACTION n`` where one of them is an action (the fixed part: the discrete
+#: gradients, projections and calls around the user's functions, ~1 us at n = 4 to 24); a Newton iteration adds
+#: the solve, 2 n^2 flops, a refresh n + 1 field evaluations and the factorisation, 2 n^3 / 3 flops
+#: (docs/engine_rn_speed.md: the calibration)
+FIELD_COST_FIXED = 1000.0
 FIELD_COST_MATRIX = 4.0
 FIELD_COST_ACTION = 100.0
 
@@ -149,10 +152,10 @@ THETA_DIVERGE = 0.9
 FIRST_NEWTON_N = 64
 
 
-#: Newton iterations per step, and refreshes per Newton step, assumed before any are measured (SUNDIALS refreshes
-#: every 20 steps)
+#: Newton iterations per step, and refreshes per Newton step, assumed before any are measured: one refresh per
+#: probe interval (``PROBE_MIN`` steps), the one a return to Newton after fixed-point steps takes
 NEWTON_ITERATIONS_ASSUMED = 3.0
-REFRESHES_ASSUMED = 0.05
+REFRESHES_ASSUMED = 0.125
 
 
 #: the largest n whose workspace holds the dense Jacobian and its factors (2 n^2 floats: 64 MiB at 2048); above
@@ -647,18 +650,22 @@ def _start(model, eps, hamiltonian, damped, x, h, work):
 
 
 @inner
+def field_cost(model, n):
+    """The modelled flops of one evaluation of the discrete field (``FIELD_COST_*``)."""
+    return FIELD_COST_FIXED + (FIELD_COST_ACTION * n if model.actions != 0 else FIELD_COST_MATRIX * n * n)
+
+
+@inner
 def newton_weight(model, n):
     """The cost of a Newton iteration in fixed-point iterations: ``1 + 2 n^2 / c_f``, ``c_f`` the modelled cost
-    of the field (``FIELD_COST_MATRIX``, ``FIELD_COST_ACTION``)."""
-    field = FIELD_COST_ACTION * n if model.actions != 0 else FIELD_COST_MATRIX * n * n
-    return 1.0 + 2.0 * n * n / field
+    of the field (``field_cost``)."""
+    return 1.0 + 2.0 * n * n / field_cost(model, n)
 
 
 @inner
 def refresh_cost(model, n):
     """A refresh in field evaluations: n + 1 of them and the factorisation, ``2 n^3 / 3`` flops."""
-    field = FIELD_COST_ACTION * n if model.actions != 0 else FIELD_COST_MATRIX * n * n
-    return n + 1.0 + 2.0 * n * n * n / (3.0 * field)
+    return n + 1.0 + 2.0 * n * n * n / (3.0 * field_cost(model, n))
 
 
 @inner
