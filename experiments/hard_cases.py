@@ -57,8 +57,11 @@ def tiny_steps(method):
     quartic = geomint.systems.quartic_rigid_body(eps=1.0)
     sol = geomint.solve(quartic, X0, (0, 1e-10), 1e-12, method=method)
     moved = sol.x_final - X0
-    rel = np.max(np.abs(moved - 1e-10 * quartic.xi(X0))) / np.max(np.abs(moved))
-    return sol.success and exact(sol) <= 64 * EPS and rel < 1e-6, f"dH = {exact(sol):.1e}, motion error {rel:.1e}"
+    error = np.max(np.abs(moved - 1e-10 * quartic.xi(X0)))
+    rel = error / np.max(np.abs(moved))
+    # a projection may move each of the 100 states by round-off, 4 ulp a step (as tests/test_hard_cases.py allows)
+    within = error <= 1e-6 * np.max(np.abs(moved)) + 100 * 4 * EPS
+    return sol.success and exact(sol) <= 64 * EPS and within, f"dH = {exact(sol):.1e}, motion error {rel:.1e}"
 
 
 def huge_steps(method):

@@ -75,7 +75,10 @@ def test_quiet_prints_nothing(tmp_path, capsys):
 
 
 def test_numerical_failure_exits_1_and_keeps_results(tmp_path, capsys):
-    text = SHORT.replace('method = "gonzalez"', 'method = { name = "gonzalez", max_newton_iter = 1 }')
+    # one Newton iteration a start, on a stiff scene (h eps |grad H|^2 = 30 to 100): no start reaches the root
+    text = SHORT.replace('method = "gonzalez"', 'method = { name = "gonzalez", max_newton_iter = 1 }').replace(
+        "eps = 0.5", "eps = 1000.0"
+    )
     out = tmp_path / "fail"
     assert main(["run", str(_scene(tmp_path, text)), "--out", str(out), "--quiet"]) == FAILED
     assert "geomint: run failed: x0 = " in capsys.readouterr().err

@@ -93,10 +93,10 @@ def test_million_steps_keep_energy_to_round_off(eps):
 
 def test_newton_failure_is_reported_with_the_step_and_keeps_the_states():
     system = geomint.systems.quartic_rigid_body(k=1.0, eps=1.0)
-    sol = geomint.solve(system, [0.9, 0.4, -0.3], (0.0, 10.0), 0.1, method=geomint.Gonzalez(max_newton_iter=1))
+    sol = geomint.solve(system, [0.9, 0.4, -0.3], (0.0, 10.0), 0.3, method=geomint.Gonzalez(max_newton_iter=1))
     assert not sol.success and sol.status == -1
     assert sol.failed_step == 1
-    assert "Step 1 (t = 0 -> 0.1) failed: the Newton iteration did not converge" in sol.message
+    assert "Step 1 (t = 0 -> 0.3) failed: the Newton iteration did not converge" in sol.message
     assert "max_newton_iter" in sol.message
     np.testing.assert_array_equal(sol.x, [[0.9, 0.4, -0.3]])
 

@@ -64,7 +64,7 @@ def test_drift_labels_the_growth_law():
 
 def test_level_surface_counts_failures_in_the_title_and_marks_them():
     starts = geomint.level_set.sample(BODY, 0.6, 3)
-    sols = [geomint.solve(BODY, x, (0.0, 2.0), 0.3, method=geomint.Gonzalez(max_newton_iter=1)) for x in starts]
+    sols = [geomint.solve(BODY, x, (0.0, 2.0), 0.5, method=geomint.Gonzalez(max_newton_iter=1)) for x in starts]
     ok = geomint.solve(BODY, starts[0], (0.0, 2.0), 0.1)
     ax = plotting.level_surface(BODY, sols + [ok])
     assert ax.get_title() == "trajectories on H = 0.6; 3 of 4 failed"

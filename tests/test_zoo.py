@@ -173,6 +173,20 @@ def test_yoshida4_stops_only_in_its_documented_limit(name, monotone, x0):
     assert below.success and not in_the_backward_limit(animal, method, below, 0.05), below.message
 
 
+@pytest.mark.parametrize("method", [geomint.Gonzalez(), geomint.ItohAbe(), geomint.AVF()], ids=_ids)
+def test_a_long_forward_step_runs_where_rk4_does(method):
+    """Found by hypothesis on the quartic body: at h = 0.09375 (h lambda = 1.8) from (1, 1.1875, 1.125) Newton's
+    full steps diverge from every start the step tries, and RK4 runs.  The step's damped last attempt
+    (docs/hard_cases.md, "Long forward steps") runs it: every step kept, the first exact to its ulps."""
+    animal = next(a for a in ANIMALS if a.name == "quartic_rigid_body")
+    x0, h = (1.0, 1.1875, 1.125), 0.09375
+    assert geomint.solve(animal.system, x0, (0.0, animal.T), h, method="rk4", save_every=None).success
+    sol = geomint.solve(animal.system, x0, (0.0, 16 * h), h, method=method)
+    assert sol.success, sol.message
+    assert np.linalg.norm(sol.x[1] - sol.x[0]) > 0.5 * np.linalg.norm(x0)  # the first step: half the state's size
+    assert not per_step_violations(animal, sol, method), per_step_violations(animal, sol, method)
+
+
 #: the methods whose runs must never fail on the zoo (issue 9): the discrete gradients of
 #: Gonzalez type and the splittings and compositions of them
 ROBUST = [

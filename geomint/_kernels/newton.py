@@ -31,7 +31,7 @@ from .layout import (
 )
 from .roundoff import kept, origin_terms, term_scale
 from .runge_kutta import rk4_increment
-from .vec3 import abs_dot, add, advance, as_vector, axpy, is_finite, load, norm_inf, same, scale, solve, sub
+from .vec3 import abs_dot, add, advance, as_vector, axpy, dot, is_finite, load, norm_inf, same, scale, solve, sub
 
 #: a root found to round-off must keep H and S to this many ulps of their terms; a far-away
 #: spurious root (a step far beyond the time scale) does not
@@ -297,18 +297,82 @@ def seed_predictor(work, dx, h):
     work[W_H] = h
 
 
+#: the smallest damping factor of a step's last attempt (``_homed``)
+HOMING_MIN_DAMPING = 2.0**-12
+
+#: Armijo's sufficient decrease of ``|R|^2 / 2`` along the Newton direction (Nocedal & Wright, section 3.1)
+ARMIJO = 1e-4
+
+
+@inner
+def _homed(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h):
+    """A start near the root of the discrete residual ``R(x') = x' - x - h F(x, x')`` where Newton's full steps
+    diverge from every other start: a step long against the field's nonlinearity (docs/hard_cases.md, "Long
+    forward steps").
+
+    Damped Newton from the explicit RK4 increment, at most ``max_iter`` steps: each takes the Newton direction
+    ``d = R'(y)^-1 R(y)`` and ``y - lambda d`` with ``lambda`` halved from 1 until ``|R|^2 / 2`` falls by
+    ``ARMIJO lambda |R|^2`` (Deuflhard, *Newton Methods for Nonlinear Problems*, 2004, section 3.1; Nocedal &
+    Wright, *Numerical Optimization*, 2006, section 3.1), until ``|R|`` is within sqrt(eps) of the increment.
+    ``newton`` then finishes from it under the acceptance rule of every attempt.  Returns ``(found, dx,
+    evaluations)``, ``found`` only where the damped steps got there and within half the RK4 increment: a root
+    far from the flow is no step (a composition's backward sub-step in its documented band).
+    """
+    reference = rk4_increment(model, eps, hamiltonian, buf, x, h)
+    evaluations = 5
+    scales = (0.0, 0.0, 0.0)
+    y = add(x, reference)
+    r = _residual(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h, y, scales)
+    size = dot(r, r)
+    for k in range(max_iter + 1):
+        if not np.isfinite(size):
+            return False, reference, evaluations
+        if norm_inf(r) <= SQRT_EPS * norm_inf(sub(y, x)):
+            dx = sub(y, x)
+            return norm_inf(sub(dx, reference)) <= 0.5 * norm_inf(reference), dx, evaluations
+        if k == max_iter:
+            break
+        m = _residual_matrix(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h, y, scales)
+        d = solve(m, r)
+        evaluations += 4
+        damping = 1.0
+        while True:
+            y_try = sub(y, scale(damping, d))
+            r_try = _residual(kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h, y_try, scales)
+            evaluations += 1
+            size_try = dot(r_try, r_try)
+            if size_try <= (1.0 - 2.0 * ARMIJO * damping) * size:
+                break
+            damping *= 0.5
+            if damping < HOMING_MIN_DAMPING:
+                return False, reference, evaluations
+        y, r, size = y_try, r_try, size_try
+    return False, reference, evaluations
+
+
 @inner
 def attempts(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, work, first):
     """The starts a step tries when it has no extrapolated one, or when that failed (``first = 1``), in turn:
     a fresh Jacobian and the linearly implicit start; the explicit RK4 increment; a fresh Jacobian with the
-    step anchored to H(x_n) (and S(x_n)).  Returns ``newton``'s tuple and the attempt that ended it."""
+    step anchored to H(x_n) (and S(x_n)); damped Newton's iterate (``_homed``) with the residual's Jacobian
+    there, anchored as the first three.  Returns ``newton``'s tuple and the attempt that ended it."""
     iterations = 0
     evaluations = 0
     target, S_target = H_x, S_x
-    for attempt in range(first, 4):
+    for attempt in range(first, 5):
         if attempt == 1 and first == 0:
             continue  # attempt 0 already started from a fresh Jacobian
-        if attempt == 2:
+        if attempt == 4:
+            found, dx, ev = _homed(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h)
+            evaluations += ev
+            if not found:
+                break
+            target, S_target = H_x, S_x
+            m = _residual_matrix(
+                kind, coeffs, model, eps, hamiltonian, buf, x, H_x, S_x, h, add(x, dx), (0.0, 0.0, 0.0)
+            )
+            evaluations += 4
+        elif attempt == 2:
             dx = rk4_increment(model, eps, hamiltonian, buf, x, h)
             evaluations += 4
         else:
@@ -320,7 +384,8 @@ def attempts(kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, H_x,
             if attempt == 3:  # S too: at eps = 0 the step was given S(x0) (``loop.run``), else this is S_x itself
                 load(buf, x)
                 target, S_target = model.H(buf, model.params), model.S(buf, model.params)
-        m = newton_matrix(work, h)
+        if attempt != 4:
+            m = newton_matrix(work, h)
         status, x_new, comp_new, H_new, S_new, it, ev, rate, culprit = newton(
             kind, max_iter, coeffs, model, eps, hamiltonian, buf, x, comp, target, S_target, h, dx, m
         )
