@@ -1,6 +1,7 @@
 """Where the discrete-gradient methods' implicit step stops while RK4 runs; prints a Markdown table.
 
-For random starts in the box [-1.2, 1.2]^3 (seed fixed) on the relaxing and the quartic rigid body (eps = 0.5),
+For random starts in the box [-1.2, 1.2]^n (seed fixed) on the relaxing and the quartic rigid body (eps = 0.5) and
+a random Fish system in R^4 (eps = 0.5, the R^n engine),
 8 fixed steps of h = r / lambda(x0) for r = 0.5, 0.6, ..., 3.0, lambda the largest |eigenvalue| of the field's
 Jacobian (``geomint.analysis.linearise``): the pairs (start, r) where the generic RK4 runs (RK4 is stable to
 h lambda = 2.78 on a linear problem) and the method stops, with the smallest ``h lambda(x0)`` among them and the
@@ -50,11 +51,12 @@ def main(argv=None):
     systems = [
         geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.5),
         geomint.systems.quartic_rigid_body(eps=0.5),
+        geomint.systems.random_fish(4, seed=3, eps=0.5),
     ]
     print("| system | method | runs stopped where RK4 runs | smallest h lambda among them | statuses |")
     print("|---|---|---|---|---|")
     for system in systems:
-        starts = np.random.default_rng(SEED).uniform(-1.2, 1.2, size=(args.starts, 3))
+        starts = np.random.default_rng(SEED).uniform(-1.2, 1.2, size=(args.starts, system.dim))
         verdicts = [rk4_verdicts(system, x0) for x0 in starts]
         tried = sum(map(sum, verdicts))
         for name in METHODS:

@@ -88,6 +88,7 @@ from .layout import (
     UNKNOWN,
     StepResult,
 )
+from .newton import ARMIJO, HOMING_MIN_DAMPING
 from .vecn import (
     LAPACK_INT,
     abs_dot,
@@ -634,6 +635,71 @@ def _iterate(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, wo
 
 
 @inner
+def _residual_n(kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, work):
+    """``R = y - x - h F(x, y)`` at the workspace's ``V_NEW`` into ``V_R``; returns ``|R|^2`` (inf where not
+    finite).  The gradients uncorrected, as an iteration's first iterate takes them."""
+    n = x.shape[0]
+    y, F, r = vector(work, V_NEW, n), vector(work, V_F, n), vector(work, V_R, n)
+    H_y, S_y = discrete_field_n(kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, y, np.inf, np.inf, work)[:2]
+    for i in range(n):
+        r[i] = (y[i] - x[i]) - h * F[i]
+    size = dot(r, r)
+    return size if np.isfinite(size) and np.isfinite(H_y) and np.isfinite(S_y) else np.inf
+
+
+@inner
+def _homed_n(kind, max_iter, coeffs, model, eps, hamiltonian, x, comp, H_x, S_x, h, work):
+    """The R^n step's last attempt, as the R^3 step's (``newton._homed``): damped Newton from the RK4 step
+    into ``V_NEW``, each direction ``A^-1 R`` with ``A = I - h/2 D xi(xbar)`` refreshed at the midpoint of the
+    iterate, ``y - lambda A^-1 R`` with ``lambda`` halved from 1 until ``|R|^2 / 2`` falls by Armijo's fraction,
+    at most ``max_iter`` steps, until ``|R|`` is within sqrt(eps) of the increment.  Returns ``(found,
+    evaluations, refreshes)``: ``found`` where it got there within half the RK4 increment (a root far from the
+    flow is no step), the factors then those ``_iterate`` finishes with."""
+    n = x.shape[0]
+    y, r = vector(work, V_NEW, n), vector(work, V_R, n)
+    direction, saved, reference = vector(work, V_K3, n), vector(work, V_K4, n), vector(work, V_ROWS, n)
+    rk4_step_n(model, eps, hamiltonian, x, comp, h, work)
+    for i in range(n):
+        reference[i] = y[i] - x[i]
+    size = _residual_n(kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, work)
+    evaluations, refreshes = 5, 0
+    for k in range(max_iter + 1):
+        if not np.isfinite(size):
+            return False, evaluations, refreshes
+        increment, off, reach = 0.0, 0.0, 0.0
+        for i in range(n):
+            increment = max(increment, abs(y[i] - x[i]))
+            off = max(off, abs((y[i] - x[i]) - reference[i]))
+            reach = max(reach, abs(reference[i]))
+        if norm_inf(r) <= SQRT_EPS * increment:
+            return off <= 0.5 * reach, evaluations, refreshes
+        if k == max_iter:
+            break
+        for i in range(n):
+            direction[i] = 0.5 * (x[i] + y[i])
+        if not refresh(model, eps, hamiltonian, False, direction, h, work):
+            return False, evaluations, refreshes
+        evaluations += n + 1
+        refreshes += 1
+        copy_into(direction, r)
+        solve(work, n, direction)
+        copy_into(saved, y)
+        damping = 1.0
+        while True:
+            for i in range(n):
+                y[i] = saved[i] - damping * direction[i]
+            trial = _residual_n(kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, work)
+            evaluations += 1
+            if trial <= (1.0 - 2.0 * ARMIJO * damping) * size:
+                break
+            damping *= 0.5
+            if damping < HOMING_MIN_DAMPING:
+                return False, evaluations, refreshes
+        size = trial
+    return False, evaluations, refreshes
+
+
+@inner
 def _start(model, eps, hamiltonian, damped, x, h, work):
     """A fresh Jacobian at ``x`` and the linearly implicit start ``y = x + A^-1 h xi(x)``; False where A is
     singular (the start is then the explicit Euler step)."""
@@ -793,6 +859,20 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
             evaluations += ev
             if status != NEWTON_FAILED:
                 break
+        if status == NEWTON_FAILED:  # the last attempt: damped Newton from the RK4 step
+            eps_step = damped_eps(damped, eps, h, work)
+            found, ev, refreshed = _homed_n(
+                kind, max_iter, coeffs, model, eps_step, hamiltonian, x, comp, H_x, S_x, h, work
+            )
+            evaluations += ev
+            refreshes += refreshed
+            if found:
+                status, H_y, S_y, it, ev, theta, culprit = _iterate(
+                    kind, max_iter, coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, True, np.inf
+                )
+                iterations += it
+                newton_iterations += it
+                evaluations += ev
         if work[WN_SOLVER] == AUTO:
             after_newton(work, newton_iterations, refreshes, fixed_point)
     if status != OK:
