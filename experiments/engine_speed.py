@@ -393,6 +393,10 @@ process is not. Three runs of this script on that day with the same R³ code (me
 Gonzalez / floor moving 1.92, 2.01, 1.95; at rest 1.54, 1.78, 1.77; RK4 / inlined RK4 1.55, 1.73, 1.70;
 solve_ensemble / prange 1.99, 2.24, 2.22; the floors themselves 90, 106 and 103 ns moving. The RK4 step and loop
 were not changed that day: the code before it measured 1.51 and 1.46 interleaved with it, the day before 1.41.
+The tables above are from a later day on a quieter machine (2026-11-26, after the damped last attempt of a
+step, docs/hard_cases.md, which runs only where every other start failed and so not here). Two runs that day:
+Gonzalez / floor moving 1.78 and 1.87, at rest 1.51 and 1.52, RK4 / inlined RK4 1.44 and 1.41, solve_ensemble /
+prange 1.97 and 1.92; the tables are the second.
 """
 
 

@@ -772,8 +772,10 @@ Reading these tables (the run this page was written from):
 - **Each floor is a floor**: exact at every step of its run (no step failing, |ΔH| within 2.4 ulps of its terms, S
   never against its direction), on geomint's trajectory (final states within 3·10⁻¹¹) and as close to the step's
   root as geomint's solvers within that measure's noise (10⁴ × closer on the pendula). geomint's automatic
-  choice costs 1.76 (gas containers), 1.45 (Euler), 1.55 (random Fish) and 4.26 (pendula) × the floor (medians
-  of 5 fresh processes, the machine noisier than in earlier runs: the floors themselves vary by 15 %). Before the
+  choice costs 1.7 (gas containers), 1.4 (Euler), 1.6 (random Fish) and 4.3 (pendula) × the floor (medians of 5
+  fresh processes, 2026-11-26, with the step's damped last attempt, which these runs never reach; the ratios of
+  the median times 1.69, 1.42, 1.57 and 4.32; a run the day before on a noisier machine, where the floors varied
+  by 15 %, read 1.76, 1.45, 1.55 and 4.26). Before the
   step loop stopped counting references to its arrays (docs/engine_speed.md, reading) they were 4.5, 5.5, 7.3 and
   4.6; before the catalogue's Euler and random Fish P were written at the cost of their structure (below), 1.9,
   3.2, 6.7 and 4.2; before the solver choice priced the field's fixed part and Newton's refreshes (below), 2.05 and
