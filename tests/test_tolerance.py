@@ -116,6 +116,16 @@ def test_a_step_far_beyond_the_dynamics_is_flagged():
     assert ensemble.solution(0).caveats == ensemble.caveats[0] and ensemble.messages[0].endswith(ensemble.caveats[0][0])
 
 
+def test_the_flag_claims_only_what_the_method_keeps():
+    """The caveat of a step far beyond the dynamics says every step keeps H and S only for a method that does:
+    RK4 keeps neither (a new user's RK4 run blew up under a caveat saying it kept them)."""
+    claims = "every step keeps H and S"
+    for method, keeps in (("gonzalez", True), ("rk4", False), (geomint.Projected(geomint.RK4()), True)):
+        with pytest.warns(AccuracyWarning, match="times the time scale"):
+            sol = geomint.solve(MAXWELL_BLOCH, [1.0, 0.5, 0.3], (0.0, 1e7), h=1e6, method=method)
+        assert (claims in sol.caveats[0]) == keeps, (method, sol.caveats)
+
+
 def test_sensible_and_intended_stiff_steps_are_not_flagged():
     """h = 0.05 on Maxwell-Bloch (h x rate = 0.07); DampedGonzalez on the stiff relaxing body, eps = 1e3,
     h = 0.1 (docs/hard_cases.md: the damped step is made for h eps |grad H|^2 >> 1; only the conservative

@@ -373,9 +373,12 @@ def step_caveat(integrator: Integrator, h: float, ratio: float, rate: float) -> 
         if _damped(integrator)
         else "the field's local rate"
     )
+    kept = {(True, True): "every step keeps H and S, but ", (True, False): "every step keeps H, but "}.get(
+        (integrator.energy_exact, integrator.dissipative), ""
+    )
     return (
         f"The step h = {abs(h):g} is {ratio:.3g} times the time scale of the dynamics ({part}, the norm of "
-        f"its Jacobian, is {rate:.3g}; flagged above {STEP_RATIO_LIMIT:g}): every step keeps H and S, but the "
+        f"its Jacobian, is {rate:.3g}; flagged above {STEP_RATIO_LIMIT:g}): {kept}the "
         f"states do not follow the trajectory. Use h of order 1/{rate:.3g} = {1.0 / rate:.3g} or less, or adaptive "
         "steps (h=None)."
     )
