@@ -94,16 +94,28 @@ def catching_everywhere() -> Iterator[list[BaseException]]:
         _everywhere.remove(record)
 
 
-@contextlib.contextmanager
-def catching(counters: npt.NDArray[np.int64] | None = None) -> Iterator[list[BaseException]]:
+def catching(counters: npt.NDArray[np.int64] | None = None) -> _Catching:
     """Record the first exception user functions raise inside kernels run in this block (a list, empty or of one).
 
     ``counters``: the run's counters array, whose ``RAISED`` entry counts them for the step loop.
     """
-    _install()
-    outer = getattr(_active, "record", None), getattr(_active, "counters", None)
-    _active.record, _active.counters = [], counters
-    try:
-        yield _active.record
-    finally:
-        _active.record, _active.counters = outer
+    return _Catching(counters)
+
+
+class _Catching:
+    """``catching``'s block (a class: entered and left at every ``solve``, where a generator costs more)."""
+
+    __slots__ = ("counters", "outer")
+
+    def __init__(self, counters: npt.NDArray[np.int64] | None) -> None:
+        self.counters = counters
+
+    def __enter__(self) -> list[BaseException]:
+        _install()
+        self.outer = getattr(_active, "record", None), getattr(_active, "counters", None)
+        record: list[BaseException] = []
+        _active.record, _active.counters = record, self.counters
+        return record
+
+    def __exit__(self, *exc_info: object) -> None:
+        _active.record, _active.counters = self.outer

@@ -7,6 +7,7 @@ OverflowError, and every error names the argument.
 
 from __future__ import annotations
 
+import functools
 import numbers
 import os
 from typing import TYPE_CHECKING
@@ -21,6 +22,8 @@ if TYPE_CHECKING:
 
 def real(name: str, value: object) -> float:
     """``value`` as a float, or a TypeError/ValueError naming ``name``."""
+    if type(value) is float:
+        return value
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise TypeError(f"`{name}` must be a real number; got {value!r} ({type(value).__name__}).")
     try:
@@ -50,11 +53,8 @@ def reals(name: str, values: object) -> npt.NDArray[np.float64]:
 
 def memory_problem(nbytes: int) -> str | None:
     """None when ``nbytes`` fits in half this machine's memory, else the figures as text."""
-    try:
-        available = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (ValueError, OSError, AttributeError):
-        return None
-    if nbytes <= available // 2:
+    available = _physical_memory()
+    if available is None or nbytes <= available // 2:
         return None
     return f"needs {nbytes / 2**30:.3g} GiB, more than half this machine's memory ({available / 2**30:.3g} GiB)"
 
@@ -66,3 +66,12 @@ def did_you_mean(key: object, known: Iterable[object]) -> str:
 
     nearest = difflib.get_close_matches(str(key), [str(k) for k in known], n=1, cutoff=0.6)
     return f"; did you mean `{nearest[0]}`?" if nearest else "."
+
+
+@functools.cache
+def _physical_memory() -> int | None:
+    """This machine's memory in bytes (None where the system does not say), read once."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return None

@@ -73,6 +73,16 @@ def test_vectorised_evaluation_matches_single_states():
         np.testing.assert_array_equal(many, single)
 
 
+@pytest.mark.parametrize("system", [geomint.systems.quartic_rigid_body(eps=0.3), geomint.systems.damped_pendula(3)])
+def test_H_and_S_together_are_H_and_S_alone_bit_for_bit(system):
+    X = np.random.default_rng(2).normal(size=(4, system.dim))
+    for x in (X[0], X):
+        H, S = system.H_and_S(x)
+        np.testing.assert_array_equal(H, system.H(x))
+        np.testing.assert_array_equal(S, system.S(x))
+        assert np.ndim(H) == np.ndim(S) == x.ndim - 1
+
+
 def test_fields_match_the_papers_equations():
     a, b, c, eps = 0.5, 1.0, 1.5, 0.7
     system = geomint.systems.relaxing_rigid_body(a, b, c, eps=eps)

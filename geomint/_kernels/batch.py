@@ -19,8 +19,7 @@ from numba import njit
 from numba.extending import overload
 
 from .._cache import CACHE
-from .control import start
-from .layout import C_STOP, OK, RAISED, STATUS, Model, ModelN
+from .layout import C_STOP, OK, STATUS, Model, ModelN
 from .loop import Output, run
 from .state import _is_n, _typed_n
 
@@ -56,18 +55,6 @@ def _own_model_typed(model, params, origin):
     return lambda model, params, origin: _own3(model, params, origin)
 
 
-def start_point(model, state):
-    """The state's x in a run state (``state``'s layout): ``state[:3]`` in R^3, ``state[:n]`` in R^n."""
-    return state[: (state.shape[0] - 2) // 2] if _is_n(model) else state[:3]
-
-
-@overload(start_point, inline="always")
-def _start_point_typed(model, state):
-    if _typed_n(model):
-        return lambda model, state: state[: (state.shape[0] - 2) // 2]
-    return lambda model, state: state[:3]
-
-
 @njit(cache=CACHE, nogil=True, error_model="numpy")
 def run_batch(
     model,
@@ -94,7 +81,7 @@ def run_batch(
     """At most ``budget`` attempted steps (``loop.run``) of the trajectories in groups ``first, first + stride,
     ...`` (``GROUP`` consecutive trajectories a group) whose status is OK and which have stops left, each with its
     own ``params[i]``, ``origins[i]``, ``eps[i]`` and clock ``clocks[i]``.  An adaptive clock whose step
-    ``clocks[i, C_H]`` is 0 starts with ``control.first_step``.
+    ``clocks[i, C_H]`` is 0 starts with ``control.first_step`` (chosen by ``loop.run``, as in ``solve``).
 
     Caller: ``geomint.run.ensemble.solve_ensemble``, which validated everything, runs one thread per stride and
     calls again until no trajectory has stops left.
@@ -106,10 +93,6 @@ def run_batch(
                 continue
             own = own_model(model, params[i], origins[i])
             out = Output(t[i], x[i], H[i], S[i], counters[i], residuals[i])
-            try:
-                start(control, own, eps[i], hamiltonian, start_point(model, states[i]), clocks[i], stops[-1])
-            except Exception:  # noqa: BLE001 - an inlined user function raised where the first step is chosen:
-                counters[i, RAISED] += 1  # the loop saves the start and fails the first step, as for a raise it counts
             run(own, eps[i], hamiltonian, method, control, states[i], works[i], clocks[i], stops, budget, out)
 
 

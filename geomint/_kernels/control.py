@@ -64,7 +64,7 @@ from .._cache import CACHE
 from .composition import composed_step
 from .control_n import estimated_by_doubling_n, estimated_discrete_gradient_n, estimated_pair_n, first_step_n
 from .field import field
-from .jit import inner
+from .jit import hot, inner
 from .layout import (
     C_BASE,
     C_COUNT,
@@ -132,7 +132,7 @@ def proportional_tolerance(estimator, order, rtol):
     return rtol ** (1.0 / order) if estimator == DOUBLING and order >= 4 else 1.0
 
 
-@inner
+@hot
 def error_norm(e, e_low, x, x_new, rtol, atol, blended):
     """The controller's norm of the estimate ``e`` (and DOP853's ``e_low`` where ``blended``).
 
@@ -190,7 +190,7 @@ def _steps(method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, 
     return StepResult(r.x, r.comp, r.H, r.S, r.status, iterations, evaluations, r.residual, r.culprit), e
 
 
-@inner
+@hot
 def _estimated_pair(method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work):
     r, e, e_low = pair_step(method, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work, control.adaptive)
     return r, error_norm(e, e_low, x, r.x, control.rtol, control.atol, method.e_low.shape[0] > 0)

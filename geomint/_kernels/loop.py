@@ -20,7 +20,7 @@ from numba.extending import overload
 
 from .._cache import CACHE
 from .borrow import borrowed
-from .control import FAILED_FACTOR, PULL_BACK_ITER, Control, accept, attempt, now, on_rejection, propose, traits
+from .control import FAILED_FACTOR, PULL_BACK_ITER, Control, accept, attempt, now, on_rejection, propose, start, traits
 from .jit import hot, inner
 from .layout import (
     C_COUNT,
@@ -59,6 +59,7 @@ from .state import (
     point,
     pulled_back,
     save_row,
+    start_point,
     unchanged,
     unpack,
 )
@@ -179,6 +180,31 @@ def _onto_anchor_typed(control, model, buf, x, H_x, S_x, anchor, S_cap, work):
     return lambda control, model, buf, x, H_x, S_x, anchor, S_cap, work: (x, H_x, S_x, 0, False)
 
 
+def start_raised(control, model, eps, hamiltonian, state, clock, t_end):
+    """Choose an adaptive run's first step (``control.start``: ``control.first_step`` when ``clock[C_H]`` is 0,
+    nothing otherwise); True where an inlined user function raised there.  Compiled only for the controller
+    that can choose one (``control.Control``)."""
+    return _start_raised(control, model, eps, hamiltonian, state, clock, t_end)
+
+
+@overload(start_raised)
+def _start_raised_typed(control, model, eps, hamiltonian, state, clock, t_end):
+    if control.instance_class is Control:
+        return lambda control, model, eps, hamiltonian, state, clock, t_end: _start_raised(
+            control, model, eps, hamiltonian, state, clock, t_end
+        )
+    return lambda control, model, eps, hamiltonian, state, clock, t_end: False
+
+
+@inner
+def _start_raised(control, model, eps, hamiltonian, state, clock, t_end):
+    try:
+        start(control, model, eps, hamiltonian, start_point(model, state), clock, t_end)
+    except Exception:  # noqa: BLE001 - an inlined user function raised
+        return True
+    return False
+
+
 @inner
 def _pulled_back(model, buf, x, H_x, S_x, anchor, S_cap, work):
     """``state.pulled_back`` onto the anchor's level set: ``(x', H', S', evaluations, raised)``, ``x`` as it was
@@ -202,7 +228,8 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
     the state; ``clock`` (``layout.C_*``, ``layout.new_clock``) where the
     controller stands; ``work`` the method's workspace (``layout.WORK`` floats
     per slot).  All are updated in place and carried from call to call: the
-    first call saves the initial state as row 0.
+    first call saves the initial state as row 0 and, for an adaptive run whose
+    ``clock[C_H]`` is 0, chooses the first step (``control.first_step``).
 
     ``out.counters`` (``layout``): steps, Newton iterations, field evaluations,
     rejected attempts; a failure sets ``STATUS``, ``FAILED_STEP`` (accepted
@@ -234,6 +261,10 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
             state[ANCHOR] = H0
         state[S_AT] = model.S(at, p)
         _save(out, clock[C_T], x, H0, state[S_AT])
+        # the first step of an adaptive run, when not given, is chosen here (so a solve and a trajectory of an
+        # ensemble choose the same); a user function raising there fails the first step, as one raising in it
+        if counters[RAISED] == 0 and start_raised(control, model, eps, hamiltonian, state, clock, stops[-1]):
+            counters[RAISED] += 1
     anchor = state[ANCHOR]
     S_x = state[S_AT]
     # eps = 0: S is conserved as H is; a step that keeps the S it is given (``step.keeps_S``) is given S(x0), the

@@ -22,7 +22,7 @@ of a composed step); it gives back the part beyond an ulp of the terms of S.
 
 import numpy as np
 
-from .jit import inner
+from .jit import hot, inner
 from .layout import EPS, SQRT_EPS
 from .roundoff import kept, origin_terms, term_scale
 from .vec3 import as_vector, axpy, dot, load, norm_inf
@@ -35,7 +35,7 @@ def rise_tolerance(S_old, S_new, grad_s, x, base):
     return 2.0 * EPS * max(abs(S_old), abs(S_new), norm_inf(grad_s) * norm_inf(x), base)
 
 
-@inner
+@hot
 def project_energy(model, buf, x, target, max_iter):
     """``(y, H(y), iterations)``: ``y = x + lambda grad H(x)`` with ``H(y) = target`` to round-off.
 
@@ -156,7 +156,7 @@ def on_level(model, buf, y, H_y, S_y, anchor, S_x):
     ) and S_y - S_x <= rise_tolerance(S_x, S_y, grad_s, y, origin_terms(model.origin, 4, y))
 
 
-@inner
+@hot
 def project_step(model, buf, y, H_y, S_y, anchor, S_x, max_iter):
     """A step's result ``y`` (with ``H(y)``, ``S(y)`` or NaN) moved onto ``{H = anchor, S <= S_x}``.
 

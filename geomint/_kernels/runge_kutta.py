@@ -81,17 +81,23 @@ def _stage_culprit(model, eps, hamiltonian, buf, x, h):
     return UNKNOWN
 
 
-@inner
+@hot
 def _combine(k, weights, h, count):
-    """``h sum_j weights_j K_j`` over the first ``count`` rows of ``K`` (skipping zero weights)."""
+    """``h sum_j weights_j K_j`` over the first ``count`` stages ``K_j = k[3j:3j+3]`` (skipping zero weights)."""
     total = ZERO
     for j in range(count):
         if weights[j] != 0.0:
-            total = axpy(h * weights[j], (k[j, 0], k[j, 1], k[j, 2]), total)
+            total = axpy(h * weights[j], _stage(k, j), total)
     return total
 
 
-@inner
+@njit(inline="always")
+def _stage(k, j):
+    """The stage ``K_j``, kept at ``k[3j:3j+3]``."""
+    return k[3 * j], k[3 * j + 1], k[3 * j + 2]
+
+
+@hot
 def pair_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work, estimate):
     """One step; returns ``(StepResult, e, e_low)`` (``e``, ``e_low`` zero when ``estimate`` is False).
 
@@ -100,19 +106,19 @@ def pair_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, w
     the field at ``x'`` is evaluated for the estimate (one evaluation more).
     With ``method.projection`` the state is then projected (``projection.project_step``).
     """
-    a, b, e, e_low = method.a, method.b, method.e, method.e_low
+    b, e, e_low = method.b, method.e, method.e_low
+    starts, cols, values = method.a_starts, method.a_cols, method.a_values
     s = b.shape[0]
-    k = work[: 3 * (s + 1)].reshape((s + 1, 3))
+    k = work  # the stages K_j at k[3j:3j+3], j <= s
     for i in range(s):
         y = x
-        for j in range(i):
-            if a[i, j] != 0.0:
-                y = axpy(h * a[i, j], (k[j, 0], k[j, 1], k[j, 2]), y)
-        f = field(model, eps, hamiltonian, buf, y)
+        for m in range(starts[i], starts[i + 1]):  # the nonzero a_ij, j increasing
+            y = axpy(h * values[m], _stage(k, cols[m]), y)
+        f = field_inlined(model, eps, hamiltonian, buf, y)  # one call site: inlined once, as RK4's stages
         if not is_finite(f):  # name the user function that is not finite at this stage point
             culprit = non_finite_culprit(model, buf, y, hamiltonian) if is_finite(y) else UNKNOWN
             return (StepResult(y, comp, np.nan, np.nan, NON_FINITE, 0, i + 1, 0.0, culprit), ZERO, ZERO)
-        k[i, 0], k[i, 1], k[i, 2] = f
+        k[3 * i], k[3 * i + 1], k[3 * i + 2] = f
     x_new, comp_new = advance(x, comp, _combine(k, b, h, s))
     evaluations = s
     error, error_low = ZERO, ZERO
@@ -121,7 +127,7 @@ def pair_step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, w
     if estimate:
         rows = s
         if e[s] != 0.0:
-            k[s, 0], k[s, 1], k[s, 2] = field(model, eps, hamiltonian, buf, x_new)
+            k[3 * s], k[3 * s + 1], k[3 * s + 2] = field(model, eps, hamiltonian, buf, x_new)
             evaluations += 1
             rows = s + 1
         error = _combine(k, e, h, rows)

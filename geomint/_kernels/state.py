@@ -53,6 +53,18 @@ def _unpack_n(state):
     return state[:n], state[n : 2 * n]
 
 
+def start_point(model, state):
+    """The state's x in a run state (``state``'s layout): ``state[:3]`` in R^3, ``state[:n]`` in R^n."""
+    return state[: (state.shape[0] - 2) // 2] if _is_n(model) else state[:3]
+
+
+@overload(start_point, inline="always")
+def _start_point_typed(model, state):
+    if _typed_n(model):
+        return lambda model, state: state[: (state.shape[0] - 2) // 2]
+    return lambda model, state: state[:3]
+
+
 def unpack(model, state):
     """``(x, comp)`` from the run state."""
     return _unpack_n(state) if _is_n(model) else _unpack3(state)

@@ -55,11 +55,11 @@ class Integrator:
     def traits(self) -> Traits:
         raise NotImplementedError
 
-    order = property(lambda self: self.traits.order, doc="Classical order of accuracy.")
-    energy_exact = property(lambda self: self.traits.energy_exact, doc="H kept to round-off at every step.")
-    dissipative = property(lambda self: self.traits.dissipative, doc="S never rises (to round-off).")
-    symmetric = property(lambda self: self.traits.symmetric, doc="The method is its own adjoint.")
-    implicit = property(lambda self: self.traits.implicit, doc="Each step solves a nonlinear equation.")
+    order = property(lambda self: _traits(self).order, doc="Classical order of accuracy.")
+    energy_exact = property(lambda self: _traits(self).energy_exact, doc="H kept to round-off at every step.")
+    dissipative = property(lambda self: _traits(self).dissipative, doc="S never rises (to round-off).")
+    symmetric = property(lambda self: _traits(self).symmetric, doc="The method is its own adjoint.")
+    implicit = property(lambda self: _traits(self).implicit, doc="Each step solves a nonlinear equation.")
 
     @property
     def whole_field(self) -> bool:
@@ -84,3 +84,12 @@ class Integrator:
         """The step data (the lowered method: a named tuple of ``geomint._kernels.layout``) for a run of ``system``.
         Caller: ``geomint.solve``, after ``check_system``."""
         raise NotImplementedError
+
+
+def _traits(integrator: Integrator) -> Traits:
+    """``integrator.traits``, worked out once per instance: an integrator is frozen, so its traits cannot change,
+    and a wrapper's are built from its parts' (``solve`` reads them several times a call)."""
+    kept = integrator.__dict__.get("_traits")
+    if kept is None:
+        kept = integrator.__dict__["_traits"] = integrator.traits
+    return kept

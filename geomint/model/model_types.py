@@ -17,7 +17,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from numba.core.typing.typeof import typeof_impl
+from numba.core.typing.typeof import Purpose, _TypeofContext, typeof_impl
 
 from .._kernels.layout import Model, ModelN
 
@@ -32,7 +32,7 @@ _typeof_tuple = typeof_impl.dispatch(tuple)
 
 
 def _writeable(model: tuple) -> tuple[bool, ...]:
-    return tuple(bool(v.flags.writeable) for v in model if isinstance(v, np.ndarray))
+    return tuple(v.flags.writeable for v in model if type(v) is np.ndarray)
 
 
 def _typeof_model(model: tuple, c: Any) -> Any:
@@ -48,5 +48,15 @@ def _typeof_model(model: tuple, c: Any) -> Any:
     return ty
 
 
+def _argument_type(model: tuple) -> Any:
+    """The model's type as a kernel argument (``_typeof_model``), read by numba's dispatcher from its C side
+    (the ``_numba_type_`` of a value it cannot fingerprint) without going back to Python's ``typeof``."""
+    return _typeof_model(model, _ARGUMENT)
+
+
+_ARGUMENT = _TypeofContext(Purpose.argument)
+
 typeof_impl.register(Model)(_typeof_model)
 typeof_impl.register(ModelN)(_typeof_model)
+Model._numba_type_ = property(_argument_type)  # pyright: ignore[reportAttributeAccessIssue]  # numba's hook
+ModelN._numba_type_ = property(_argument_type)  # pyright: ignore[reportAttributeAccessIssue]

@@ -366,6 +366,11 @@ class MetriplecticSystem:
         """Casimir (entropy-like function) at ``x``."""
         return self._at(x, (_S,))[0]
 
+    def H_and_S(self, x: npt.ArrayLike) -> tuple[Any, Any]:
+        """``(H(x), S(x))`` in one evaluation: floats at one state, arrays at many."""
+        H, S = self._at(x, (_H, _S))
+        return H, S
+
     def grad_H(self, x: npt.ArrayLike) -> Vector:
         return _array(self._at(x, (_GRAD_H,))[0])
 

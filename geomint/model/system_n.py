@@ -392,6 +392,10 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         """The Casimir (Fish form) or entropy (GENERIC) at ``x``."""
         return self._over(x, lambda row: self._call("S", row))
 
+    def H_and_S(self, x: npt.ArrayLike) -> tuple[Any, Any]:
+        """``(H(x), S(x))``: floats at one state, arrays at many."""
+        return self.H(x), self.S(x)
+
     def grad_H(self, x: npt.ArrayLike) -> Vector:
         return self._over(x, lambda row: self._call("grad_H", row))
 

@@ -63,19 +63,22 @@ def check_state(
 ) -> npt.NDArray[np.float64]:
     """One finite state (``check_states``), with H and S finite there when ``system`` is given."""
     x = check_states(x0, name, dim=getattr(system, "dim", DIMENSION))
-    if not np.all(np.isfinite(x)):
+    if not all(map(math.isfinite, x.tolist())):  # (for a few coordinates, a fifth of numpy's isfinite and all)
         raise ValueError(f"`{name}` must be finite; got {x.tolist()}.")
     if system is not None:
-        H0, S0 = system.H(x), system.S(x)
+        H0, S0 = system.H_and_S(x)
         if not (np.isfinite(H0) and np.isfinite(S0)):
             raise ValueError(f"H and S must be finite at `{name}`; at {name} = {x.tolist()} H = {H0!r}, S = {S0!r}.")
     return x
 
 
 def check_span(t_span: Any) -> tuple[float, float]:  # refused by name unless a pair of reals
-    if isinstance(t_span, (str, bytes)) or np.ndim(t_span) != 1 or len(t_span) != 2:
-        raise ValueError(f"`t_span` must be a pair (t0, t_end) of real numbers; got {t_span!r}.")
-    t0, t_end = (_validate.real("t_span", t) for t in t_span)
+    if type(t_span) is tuple and len(t_span) == 2 and type(t_span[0]) is float and type(t_span[1]) is float:
+        t0, t_end = t_span  # the common case, checked as below without numpy's conversions
+    else:
+        if isinstance(t_span, (str, bytes)) or np.ndim(t_span) != 1 or len(t_span) != 2:
+            raise ValueError(f"`t_span` must be a pair (t0, t_end) of real numbers; got {t_span!r}.")
+        t0, t_end = (_validate.real("t_span", t) for t in t_span)
     if not (math.isfinite(t0) and math.isfinite(t_end)):
         raise ValueError(f"`t_span` must be finite; got {t_span!r}.")
     if t_end == t0:

@@ -7,7 +7,6 @@ runs and the landing steps of ``events``); ``next_chunk`` sizes the next chunk t
 from __future__ import annotations
 
 import _signal  # pyright: ignore[reportMissingImports]  # the C module under signal (no stub)
-import contextlib
 import threading
 import time
 from typing import TYPE_CHECKING
@@ -20,8 +19,6 @@ from .._kernels import loop as _loop
 from .._kernels import step_n as _step_n
 
 if TYPE_CHECKING:
-    from collections.abc import Iterator
-
     import numpy.typing as npt
 
     from ..model.system import MetriplecticSystem
@@ -56,27 +53,39 @@ def next_chunk(chunk: int, seconds: float) -> int:
     return int(min(MAX_CHUNK, 4 * chunk, max(FIRST_CHUNK, chunk * CHUNK_SECONDS / seconds)))
 
 
-@contextlib.contextmanager
-def interrupts() -> Iterator[list[int]]:
-    """Ctrl-C (SIGINT) sets a flag read between chunks instead of raising in the middle of the run.
+def interrupts() -> _Interrupts:
+    """Ctrl-C (SIGINT) sets a flag read between chunks instead of raising in the middle of the run: the block's
+    value, a list that holds the signal once it came.
 
     Only in the main thread and only where Python's own handler is installed (a caller that
     handles SIGINT itself keeps it); the previous handler is restored on exit.
     """
-    flag = []
-    # ``_signal``, the C module under ``signal``: the same handlers, without the wrapper's conversion of each to an
-    # enum (a third of a short run's fixed cost went there)
-    if (
-        threading.current_thread() is not threading.main_thread()
-        or _signal.getsignal(_signal.SIGINT) is not _signal.default_int_handler
-    ):
-        yield flag
-        return
-    previous = _signal.signal(_signal.SIGINT, lambda signum, frame: flag.append(signum))
-    try:
-        yield flag
-    finally:
-        _signal.signal(_signal.SIGINT, previous)
+    return _Interrupts()
+
+
+class _Interrupts:
+    """``interrupts``'s block (a class: entered and left at every ``solve``, where a generator costs more)."""
+
+    __slots__ = ("flag", "previous")
+
+    def __enter__(self) -> list[int]:
+        self.flag: list[int] = []
+        self.previous = None
+        # ``_signal``, the C module under ``signal``: the same handlers, without the wrapper's conversion of each to
+        # an enum (a third of a short run's fixed cost went there)
+        if (
+            threading.current_thread() is threading.main_thread()
+            and _signal.getsignal(_signal.SIGINT) is _signal.default_int_handler
+        ):
+            self.previous = _signal.signal(_signal.SIGINT, self._received)
+        return self.flag
+
+    def _received(self, signum: int, frame: object) -> None:
+        self.flag.append(signum)
+
+    def __exit__(self, *exc_info: object) -> None:
+        if self.previous is not None:
+            _signal.signal(_signal.SIGINT, self.previous)
 
 
 def save_interrupted(system: MetriplecticSystem, state: npt.NDArray[np.float64], t: float, out: _loop.Output) -> None:
@@ -98,7 +107,9 @@ def new_run_state(
     the R^n engine (``MetriplecticSystemN``, n = 3 too), whose workspace is ``step_n``'s."""
     n = len(x0)
     work = np.zeros(workspace_size(step_data, n, rn))
-    state = np.concatenate([x0, np.zeros(n), [np.nan, 0.0]])
+    state = np.zeros(2 * n + 2)
+    state[:n] = x0
+    state[2 * n] = np.nan
     return work, state
 
 

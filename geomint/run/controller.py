@@ -26,10 +26,13 @@ if TYPE_CHECKING:
 #: default rtol, and a floor that moves with rtol, so that rtol alone sets the accuracy
 RTOL, ATOL_PER_RTOL = 1e-3, 1e-3
 
+#: float64's machine epsilon
+_EPS = float(np.finfo(float).eps)
+
 
 def step_count(t0: float, t_end: float, h: float) -> int:
     """Number of fixed steps ``solve`` takes from ``t0`` to ``t_end`` (the last one shortened to land on it)."""
-    return max(1, math.ceil(abs((t_end - t0) / h) * (1.0 - 4.0 * np.finfo(float).eps)))
+    return max(1, math.ceil(abs((t_end - t0) / h) * (1.0 - 4.0 * _EPS)))
 
 
 def check_step_or_control(
@@ -70,8 +73,8 @@ def check_control(
 ) -> _control.Control:
     """The controller's settings, validated; the first step is chosen by ``control.first_step`` when not given."""
     rtol = RTOL if rtol is None else _validate.real("rtol", rtol)
-    if not (math.isfinite(rtol) and rtol >= 100 * np.finfo(float).eps):
-        raise ValueError(f"`rtol` must be finite and >= 100 eps = {100 * np.finfo(float).eps:.3g}; got {rtol!r}.")
+    if not (math.isfinite(rtol) and rtol >= 100 * _EPS):
+        raise ValueError(f"`rtol` must be finite and >= 100 eps = {100 * _EPS:.3g}; got {rtol!r}.")
     atol = ATOL_PER_RTOL * rtol if atol is None else _validate.real("atol", atol)
     if not (math.isfinite(atol) and atol >= 0.0):
         raise ValueError(f"`atol` must be finite and >= 0; got {atol!r}.")
@@ -111,7 +114,10 @@ def landing_control(
     """``(stops, Control)`` of a run by the loop (``control.Control``): it lands on the times of ``t_eval`` after ``t0``
     and on ``t_end``; fixed steps ``h`` from each stop on (``control`` None), or adaptive ones whose first
     step, when not given, is 0 here: chosen by ``control.first_step`` when the run starts."""
-    stops = np.array([t for t in (t_eval if t_eval is not None else []) if t != t0] or [t_end], dtype=np.float64)
+    if t_eval is None:
+        stops = np.array([t_end])
+    else:
+        stops = np.array([t for t in t_eval if t != t0] or [t_end], dtype=np.float64)
     if stops[-1] != t_end:
         stops = np.append(stops, t_end)
     if control is None:  # fixed steps: h was given (check_step_or_control)

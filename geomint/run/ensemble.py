@@ -766,7 +766,7 @@ def _collect(system, integrator, X0, params, eps, plan, arrays, reasons, raised_
             messages.append(reasons[i])
             x[i, 0], row_count[i] = X0[i], 1
             continue
-        if status[i] == Status.NOT_RUN:
+        if code == Status.NOT_RUN:
             messages.append("Not run: Ctrl-C stopped the ensemble first.")
             x[i, 0], row_count[i] = X0[i], 1
             continue

@@ -10,8 +10,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .. import _user_errors
-from .._kernels import control as _control
-from .._kernels import control_n as _control_n
 from .._kernels import layout as _layout
 from .._kernels import loop as _loop
 from ..integrators import DormandPrince853, Gonzalez, Projected, resolve
@@ -265,6 +263,8 @@ def check_in_rn(system: MetriplecticSystem, integrator: Integrator, step_data: t
 
 def _flagged(sol, caveats, **fields):
     """``sol`` with its ``caveats`` (each also appended to ``message`` and issued as an ``AccuracyWarning``)."""
+    if not (caveats or fields):
+        return sol
     for caveat in caveats:
         warnings.warn(caveat, AccuracyWarning, stacklevel=3)
     message = " ".join([sol.message, *caveats])
@@ -399,7 +399,7 @@ def _on_grid(system, integrator, step_data, x0, t0, t_end, h, save_every, progre
     stops = np.array([t_end])
     with _user_errors.catching(counters) as raised, interrupts() as interrupted:
         chunk, checkpointed = FIRST_CHUNK, k_begin
-        while k_begin < n_steps and counters[_layout.STATUS] == Status.OK:
+        while k_begin < n_steps and counters[_layout.STATUS] == _layout.OK:
             k_end = min(n_steps, k_begin + chunk)
             chunk = next_chunk(
                 chunk, run_chunk(system, step_data, grid, state, work, clock, stops, k_end - k_begin, out)
@@ -407,7 +407,7 @@ def _on_grid(system, integrator, step_data, x0, t0, t_end, h, save_every, progre
             k_begin = k_end
             if progress is not None:
                 progress(int(counters[_layout.STEPS]))
-            going = k_begin < n_steps and counters[_layout.STATUS] == Status.OK
+            going = k_begin < n_steps and counters[_layout.STATUS] == _layout.OK
             if checkpoint and going and (interrupted or k_begin - checkpointed >= checkpoint[1]):
                 write_checkpoint(checkpoint[0], identity, k_begin, state, work, out)
                 checkpointed = k_begin
@@ -428,7 +428,6 @@ def _to_stops(
         )
     save_all = events is not None or dense_output or (t_eval is None and save_every is not None)
     stops, control = landing_control(integrator, h, control, t0, t_end, t_eval, save_all)
-    chosen = control.adaptive and control.h == 0.0
     rows = FIRST_ROWS if save_all else len(stops) + 2
     check_memory(rows)
     out = new_output(rows, len(x0))
@@ -437,17 +436,9 @@ def _to_stops(
     terminated = None
     scanned = 0
     with _user_errors.catching(counters) as raised, interrupts() as interrupted:
-        if chosen:  # a user function raising here fails the first step, as in the loop (and as in an ensemble)
-            first = _control_n.first_step_n if isinstance(system, MetriplecticSystemN) else _control.first_step
-            try:
-                h_first = first(system.inlined_model, system.eps, system.hamiltonian, x0, t0, t_end, control)
-            except Exception:  # noqa: BLE001 - an inlined user function raised: the loop fails step 1 from x0
-                counters[_layout.RAISED] += 1
-                h_first = 0.0
-            control = control._replace(h=h_first)
-        clock = _layout.new_clock(t0, control.h)
+        clock = _layout.new_clock(t0, control.h)  # h = 0: the loop chooses the first step (``control.first_step``)
         budget = FIRST_CHUNK
-        while clock[_layout.C_STOP] < len(stops) and counters[_layout.STATUS] == Status.OK:
+        while clock[_layout.C_STOP] < len(stops) and counters[_layout.STATUS] == _layout.OK:
             if counters[_layout.ROWS] == len(out.t):
                 out = _grown(out)
             budget = next_chunk(budget, run_chunk(system, step_data, control, state, work, clock, stops, budget, out))
@@ -459,7 +450,7 @@ def _to_stops(
                 scanned = rows - 1
                 if terminated is not None:
                     break
-            if interrupted and clock[_layout.C_STOP] < len(stops) and counters[_layout.STATUS] == Status.OK:
+            if interrupted and clock[_layout.C_STOP] < len(stops) and counters[_layout.STATUS] == _layout.OK:
                 save_interrupted(system, state, clock[_layout.C_T], out)
     n = int(counters[_layout.ROWS])
     if terminated is not None:
@@ -471,7 +462,7 @@ def _to_stops(
     dense = Hermite(out.t[:n].copy(), out.x[:n].copy(), fields(system, out.x[:n])) if dense_output else None
     if t_eval is not None:
         keep = np.isin(out.t[:n], t_eval)
-        if not Status(counters[_layout.STATUS]).success:
+        if not Status(int(counters[_layout.STATUS])).success:
             keep[n - 1] = True  # the last state reached
         # the six fields: t, x, H, S (unpacked, which pyright cannot count), counters and residual
         out = _loop.Output(*(a[:n][keep] for a in out[:4]), counters, out.residual)  # pyright: ignore[reportCallIssue]
@@ -494,7 +485,7 @@ def _to_stops(
 def _solution(system, integrator, out, raised, t_from, h, **extra):
     counters = out.counters
     n = int(counters[_layout.ROWS])
-    status = Status(counters[_layout.STATUS])
+    status = Status(int(counters[_layout.STATUS]))
     failed = int(counters[_layout.FAILED_STEP]) if status.failed else None
     what = raised_message(system, out.x[n - 1], h, raised) if status == Status.USER_RAISED else None
     return Solution(
