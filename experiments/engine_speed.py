@@ -396,7 +396,11 @@ were not changed that day: the code before it measured 1.51 and 1.46 interleaved
 The tables above are from a later day on a quieter machine (2026-11-26, after the damped last attempt of a
 step, docs/hard_cases.md, which runs only where every other start failed and so not here). Two runs that day:
 Gonzalez / floor moving 1.78 and 1.87, at rest 1.51 and 1.52, RK4 / inlined RK4 1.44 and 1.41, solve_ensemble /
-prange 1.97 and 1.92; the tables are the second.
+prange 1.97 and 1.92. The tables were written again later that day, after a short `solve`'s fixed cost was halved
+(docs/adaptive_speed.md, "Reading": the first step chosen in the loop, the status compared as an integer, the
+overloads compiled without wrappers); the steps on these paths are the same code, and the figures moved within
+the day's noise (moving 1.87 -> 1.76, at rest 1.52 -> 1.49, RK4 1.41 -> 1.41, solve_ensemble 1.92 -> 1.91, 10^8
+steps 5.9 -> 5.6 s), while the fixed cost of a call fell from 265-400 to 200-290 us.
 """
 
 

@@ -18,6 +18,8 @@ from llvmlite import ir
 from numba.core import cgutils, types
 from numba.extending import intrinsic, overload
 
+from .jit import OVERLOADED
+
 
 def borrowed(value):
     """``value`` with every array in it uncounted (module docstring); ``value`` itself in Python."""
@@ -47,6 +49,6 @@ def _uncounted(typingctx, value):
     return value(value), codegen
 
 
-@overload(borrowed, inline="always")
+@overload(borrowed, inline="always", jit_options=OVERLOADED)
 def _borrowed_typed(value):
     return lambda value: _uncounted(value)  # pyright: ignore[reportCallIssue]  # the typing context is numba's

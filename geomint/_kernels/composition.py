@@ -52,7 +52,7 @@ from numba.extending import overload
 
 from .dg_step import discrete_gradient_step
 from .exact_flows import rigid_body_flow, rotation, rotor_splitting
-from .jit import hot, inner
+from .jit import OVERLOADED, hot, inner
 from .layout import (
     EPS,
     GRADIENT,
@@ -167,7 +167,7 @@ def _leaf_step_for(present):
 leaf_step = _leaf_step_for({RK4Leaf, *KIND_MARKERS.values(), RigidBodyFlowLeaf, RotorSplittingLeaf, RotationLeaf})
 
 
-@overload(leaf_step, inline="always")
+@overload(leaf_step, inline="always", jit_options=OVERLOADED)
 def _leaf_step_typed(uses, coeffs, iopts, row, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, work):
     return _leaf_step_for({marker.instance_class for marker in uses.types})
 
@@ -186,7 +186,7 @@ def stage_kind(uses, code):
     return code
 
 
-@overload(stage_kind, inline="always")
+@overload(stage_kind, inline="always", jit_options=OVERLOADED)
 def _stage_kind_typed(uses, code):
     at = [k for k, marker in enumerate(uses.types) if marker.instance_class in KIND_MARKERS.values()]
     if len(at) == 1:
@@ -201,7 +201,7 @@ def stage_damped(uses, flag):
     return flag
 
 
-@overload(stage_damped, inline="always")
+@overload(stage_damped, inline="always", jit_options=OVERLOADED)
 def _stage_damped_typed(uses, flag):
     if any(marker.instance_class is Damped for marker in uses.types):
         return lambda uses, flag: flag

@@ -14,7 +14,7 @@ from numba import types
 from numba.extending import overload
 
 from .field import field
-from .jit import hot, inner
+from .jit import OVERLOADED, hot, inner
 from .layout import EPS, NEWTON_FAILED, OK, UNKNOWN, W_H, W_HISTORY, W_JACOBIAN_VALID, Damped, StepResult, Undamped
 from .newton import ACCEPT_ULPS, THETA_REFRESH, attempts, jacobian, newton, newton_matrix, predictor, remember
 from .projection import S_CAP_ULPS, lower_S
@@ -35,7 +35,7 @@ def damped_eps(damped, model, eps, buf, x, h):
     return (eps * damping_factor(model, eps, buf, x, h), 4) if on else (eps, 0)
 
 
-@overload(damped_eps, inline="always")
+@overload(damped_eps, inline="always", jit_options=OVERLOADED)
 def _damped_eps_typed(damped, model, eps, buf, x, h):
     marker = getattr(damped, "instance_class", None) if isinstance(damped, types.BaseNamedTuple) else None
     if marker is Undamped:

@@ -22,6 +22,8 @@ the kernels that a kernel's compilation compiles first, so ``inner`` turns
 it off explicitly.  Measurements: docs/design.md sections 5 and 5a.
 """
 
+from typing import Any
+
 from numba import njit
 
 # (no_cpython_wrapper and no_cfunc_wrapper are numba's own options, which its stubs for njit do not list)
@@ -37,3 +39,9 @@ hot = njit(
     no_cfunc_wrapper=True,  # pyright: ignore[reportCallIssue]
     forceinline=True,
 )
+
+#: the compile options of the kernels' overloads (``numba.extending.overload``): numba compiles each overload's
+#: implementation on its own before it inlines or calls it, and, as for ``inner``, no Python or C wrapper is ever
+#: called
+#: (typed ``Any``: numba's stubs for ``jit_options`` do not list its wrapper options, as for ``inner`` above)
+OVERLOADED: Any = {"error_model": "numpy", "no_cpython_wrapper": True, "no_cfunc_wrapper": True}

@@ -21,7 +21,7 @@ from numba.extending import overload
 from .._cache import CACHE
 from .borrow import borrowed
 from .control import FAILED_FACTOR, PULL_BACK_ITER, Control, accept, attempt, now, on_rejection, propose, start, traits
-from .jit import hot, inner
+from .jit import OVERLOADED, hot, inner
 from .layout import (
     C_COUNT,
     C_H,
@@ -171,7 +171,7 @@ def onto_anchor(control, model, buf, x, H_x, S_x, anchor, S_cap, work):
     return _pulled_back(model, buf, x, H_x, S_x, anchor, S_cap, work)
 
 
-@overload(onto_anchor)
+@overload(onto_anchor, jit_options=OVERLOADED)
 def _onto_anchor_typed(control, model, buf, x, H_x, S_x, anchor, S_cap, work):
     if control.instance_class is Control:
         return lambda control, model, buf, x, H_x, S_x, anchor, S_cap, work: _pulled_back(
@@ -187,7 +187,7 @@ def start_raised(control, model, eps, hamiltonian, state, clock, t_end):
     return _start_raised(control, model, eps, hamiltonian, state, clock, t_end)
 
 
-@overload(start_raised)
+@overload(start_raised, jit_options=OVERLOADED)
 def _start_raised_typed(control, model, eps, hamiltonian, state, clock, t_end):
     if control.instance_class is Control:
         return lambda control, model, eps, hamiltonian, state, clock, t_end: _start_raised(

@@ -13,6 +13,7 @@ from numba.extending import overload
 from .composition import composed_step
 from .composition_n import composed_step_n
 from .dg_step import discrete_gradient_step
+from .jit import OVERLOADED
 from .layout import (
     NO_PROJECTION,
     P_PROJECTION,
@@ -114,7 +115,7 @@ def step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
     return steps[type(method)](method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work)
 
 
-@overload(step, inline="always")
+@overload(step, inline="always", jit_options=OVERLOADED)
 def _step_typed(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
     impl = (_STEPS_N if model.instance_class is ModelN else _STEPS)[method.instance_class]
     return lambda method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work: impl(

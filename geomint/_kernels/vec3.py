@@ -8,7 +8,7 @@ import numpy as np
 from numba import njit, types
 from numba.extending import overload
 
-from .jit import inner
+from .jit import OVERLOADED, inner
 
 ZERO = (0.0, 0.0, 0.0)
 
@@ -103,7 +103,7 @@ def as_vector(v):
     return (v[0], v[1], v[2])
 
 
-@overload(as_vector)
+@overload(as_vector, jit_options=OVERLOADED)
 def _as_vector(v):
     if isinstance(v, types.Array) and v.ndim == 2:
         return lambda v: (

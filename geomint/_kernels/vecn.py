@@ -17,7 +17,7 @@ from numba import types
 from numba.extending import overload
 from numba.np.linalg import _LAPACK, F_INT_nptype, ensure_lapack
 
-from .jit import inner
+from .jit import OVERLOADED, inner
 
 #: numba's binding of ``dgetrf`` (the one np.linalg uses; scipy's LAPACK is loaded when a kernel is compiled)
 _getrf = _LAPACK.numba_xxgetrf(types.float64)
@@ -185,7 +185,7 @@ def lapack_factor(a, pivots):
     return info == 0
 
 
-@overload(lapack_factor)
+@overload(lapack_factor, jit_options=OVERLOADED)
 def _lapack_factor_typed(a, pivots):
     ensure_lapack()
 
