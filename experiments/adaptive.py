@@ -80,7 +80,7 @@ READING = [
     "**What it cost before.** The same run took 0.21-0.24 ms (2.0x numbalsoda on this page, 2.7x before that): "
     "the call cost 110-125 us and a step 0.5 us. Where the call's time went, measured statement by statement: "
     "the first step was chosen by a compiled call of its own (numba's dispatch of the loop and of that call, "
-    "5-8 us each, most of it typing the model in Python; the loop now chooses it, `loop.start_raised`, and the "
+    "5-8 us each, most of it typing the model in Python; the loop now chooses it, `control.start`, and the "
     "model hands numba its type through `_numba_type_`); the run's status, a numpy integer, was compared with an "
     "`IntEnum` twice a call (3 us a comparison); an integrator's traits were rebuilt at each of six reads and the "
     "pair's tableau arrays at each call; numpy's `finfo`, the machine's memory size and the two guards (user "

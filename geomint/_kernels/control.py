@@ -415,7 +415,7 @@ def _control_accept(control, clock, t_now, h, err, landing, target, exponent, af
 
 @njit(inline="always")
 def _constant_start(control, model, eps, hamiltonian, x0, clock, t_end):
-    return None
+    return False
 
 
 def any_first_step(model, eps, hamiltonian, x0, t0, t_end, control):
@@ -432,10 +432,14 @@ def _any_first_step_typed(model, eps, hamiltonian, x0, t0, t_end, control):
     )
 
 
-@njit(inline="always")
+@inner
 def _control_start(control, model, eps, hamiltonian, x0, clock, t_end):
     if control.adaptive and clock[C_H] == 0.0:
-        clock[C_H] = any_first_step(model, eps, hamiltonian, x0, clock[C_T], t_end, control)
+        try:
+            clock[C_H] = any_first_step(model, eps, hamiltonian, x0, clock[C_T], t_end, control)
+        except Exception:  # noqa: BLE001 - an inlined user function raised
+            return True
+    return False
 
 
 _CONSTANT = dict(
@@ -495,7 +499,9 @@ def accept(control, clock, t_now, h, err, landing, target, exponent, after_rejec
 
 
 def start(control, model, eps, hamiltonian, x0, clock, t_end):
-    """Choose the first step (``first_step``) of an adaptive clock that has none (``clock[C_H] == 0``)."""
+    """Choose the first step (``first_step``) of an adaptive clock that has none (``clock[C_H] == 0``); True where
+    an inlined user function raised there (``loop.run`` then fails the first step as one raising in it).  Only the
+    ``Control`` controller compiles the choice (and its ``try``)."""
     return _CONTROLLERS[type(control)]["start"](control, model, eps, hamiltonian, x0, clock, t_end)
 
 

@@ -175,13 +175,13 @@ KIND_MARKERS = {
     AVF: AVFKind,
 }
 
-#: an explicit Runge-Kutta pair (``a`` strictly lower triangular, ``b`` the propagating weights; the nodes
-#: are not needed, the field is autonomous) with its error weights ``e`` (over the stages and xi at the new
-#: state, as in FSAL pairs) and, for Dormand-Prince 8(5,3), ``e_low`` (zero-size otherwise);
-#: ``projection`` is ``NO_PROJECTION`` or ``STANDARD``; the stages live in ``slots`` workspace slots.
-#: ``a``'s nonzero entries also row by row (``a_cols[a_starts[i]:a_starts[i + 1]]``, ``a_values`` alike, j
-#: increasing): the R^3 stages skip the zeros without testing each entry
-EmbeddedPairStep = namedtuple("EmbeddedPairStep", "a b e e_low projection max_iter slots a_starts a_cols a_values")
+#: an explicit Runge-Kutta pair: ``b`` the propagating weights (the nodes are not needed, the field is
+#: autonomous), its error weights ``e`` (over the stages and xi at the new state, as in FSAL pairs) and, for
+#: Dormand-Prince 8(5,3), ``e_low`` (zero-size otherwise); ``projection`` is ``NO_PROJECTION`` or ``STANDARD``; the
+#: stages live in ``slots`` workspace slots.  The strictly lower triangular ``a`` is given by its nonzero entries
+#: row by row (row i: columns ``a_cols[a_starts[i]:a_starts[i + 1]]``, j increasing, values ``a_values`` alike), so
+#: the stages skip its zeros without testing each entry
+EmbeddedPairStep = namedtuple("EmbeddedPairStep", "b e e_low projection max_iter slots a_starts a_cols a_values")
 
 #: splittings, compositions and projections: a flat program (``composition``); ``uses`` is a tuple of
 #: markers, one for each leaf the program can run (a discrete-gradient leaf by its kind marker above, the others

@@ -180,31 +180,6 @@ def _onto_anchor_typed(control, model, buf, x, H_x, S_x, anchor, S_cap, work):
     return lambda control, model, buf, x, H_x, S_x, anchor, S_cap, work: (x, H_x, S_x, 0, False)
 
 
-def start_raised(control, model, eps, hamiltonian, state, clock, t_end):
-    """Choose an adaptive run's first step (``control.start``: ``control.first_step`` when ``clock[C_H]`` is 0,
-    nothing otherwise); True where an inlined user function raised there.  Compiled only for the controller
-    that can choose one (``control.Control``)."""
-    return _start_raised(control, model, eps, hamiltonian, state, clock, t_end)
-
-
-@overload(start_raised, jit_options=OVERLOADED)
-def _start_raised_typed(control, model, eps, hamiltonian, state, clock, t_end):
-    if control.instance_class is Control:
-        return lambda control, model, eps, hamiltonian, state, clock, t_end: _start_raised(
-            control, model, eps, hamiltonian, state, clock, t_end
-        )
-    return lambda control, model, eps, hamiltonian, state, clock, t_end: False
-
-
-@inner
-def _start_raised(control, model, eps, hamiltonian, state, clock, t_end):
-    try:
-        start(control, model, eps, hamiltonian, start_point(model, state), clock, t_end)
-    except Exception:  # noqa: BLE001 - an inlined user function raised
-        return True
-    return False
-
-
 @inner
 def _pulled_back(model, buf, x, H_x, S_x, anchor, S_cap, work):
     """``state.pulled_back`` onto the anchor's level set: ``(x', H', S', evaluations, raised)``, ``x`` as it was
@@ -263,7 +238,9 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
         _save(out, clock[C_T], x, H0, state[S_AT])
         # the first step of an adaptive run, when not given, is chosen here (so a solve and a trajectory of an
         # ensemble choose the same); a user function raising there fails the first step, as one raising in it
-        if counters[RAISED] == 0 and start_raised(control, model, eps, hamiltonian, state, clock, stops[-1]):
+        if counters[RAISED] == 0 and start(
+            control, model, eps, hamiltonian, start_point(model, state), clock, stops[-1]
+        ):
             counters[RAISED] += 1
     anchor = state[ANCHOR]
     S_x = state[S_AT]

@@ -35,7 +35,8 @@ def _rows(work, n, count):
 def pair_step_n(method, model, eps, hamiltonian, x, comp, H_anchor, S_x, h, work, estimate):
     """One step; returns ``(StepResult, e, e_low)``, the estimates views of the workspace (zero when
     ``estimate`` is False; ``e_low`` zero unless the pair has one)."""
-    a, b, e, e_low = method.a, method.b, method.e, method.e_low
+    b, e, e_low = method.b, method.e, method.e_low
+    starts, cols, values = method.a_starts, method.a_cols, method.a_values
     s = b.shape[0]
     n = x.shape[0]
     rows = _rows(work, n, pair_rows(s))
@@ -45,10 +46,10 @@ def pair_step_n(method, model, eps, hamiltonian, x, comp, H_anchor, S_x, h, work
     for i in range(s):
         for m in range(n):
             y[m] = x[m]
-        for j in range(i):
-            if a[i, j] != 0.0:
-                for m in range(n):
-                    y[m] += h * a[i, j] * k[j, m]
+        for nz in range(starts[i], starts[i + 1]):  # the nonzero a_ij, j increasing
+            j = cols[nz]
+            for m in range(n):
+                y[m] += h * values[nz] * k[j, m]
         field_into(k[i], model, eps, hamiltonian, y)
         if not all_finite(k[i]):
             culprit = non_finite_culprit_n(model, y, hamiltonian) if all_finite(y) else UNKNOWN

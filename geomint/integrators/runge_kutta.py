@@ -68,16 +68,16 @@ class EmbeddedRungeKutta(Integrator):
         projection: int = layout.NO_PROJECTION,
         max_iter: int = 50,
     ) -> layout.EmbeddedPairStep:
-        a, b, e, e_low, starts, cols, values = _tableau_arrays(type(self))
+        b, e, e_low, starts, cols, values = _tableau_arrays(type(self))
         slots = math.ceil(3 * (len(b) + 1) / layout.WORK)
-        return layout.EmbeddedPairStep(a, b, e, e_low, projection, max_iter, slots, starts, cols, values)
+        return layout.EmbeddedPairStep(b, e, e_low, projection, max_iter, slots, starts, cols, values)
 
 
 @functools.cache
 def _tableau_arrays(pair: type[EmbeddedRungeKutta]) -> tuple[np.ndarray, ...]:
-    """``(a, b, e, e_low, a_starts, a_cols, a_values)`` of a pair's tableau as arrays (``a`` square, zero above
-    its rows; then its nonzero entries row by row, ``layout.EmbeddedPairStep``), built once per class: a run's
-    step data shares them (the kernels only read them)."""
+    """``(b, e, e_low, a_starts, a_cols, a_values)`` of a pair's tableau as arrays (``a`` by its nonzero entries
+    row by row, ``layout.EmbeddedPairStep``), built once per class: a run's step data shares them (the kernels
+    only read them)."""
     a_rows, b, _, e, e_low = pair.tableau[:5]
     s = len(b)
     a = np.zeros((s, s))
@@ -86,7 +86,7 @@ def _tableau_arrays(pair: type[EmbeddedRungeKutta]) -> tuple[np.ndarray, ...]:
     rows, cols = np.nonzero(a)  # row-major: j increasing within each row
     starts = np.searchsorted(rows, np.arange(s + 1)).astype(np.int64)
     weights = (np.array(v, dtype=np.float64) for v in (b, e, e_low))
-    return a, *weights, starts, cols.astype(np.int64), a[rows, cols]
+    return *weights, starts, cols.astype(np.int64), a[rows, cols]
 
 
 @dataclass(frozen=True)
