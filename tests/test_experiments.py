@@ -230,3 +230,18 @@ def test_exact_gonzalez_ensemble_floor_is_exact_and_matches_solve_ensemble():
     body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
     ensemble = geomint.solve_ensemble(body, starts, (0.0, 3.0), 0.01, method=geomint.Gonzalez(), save_every=None)
     assert np.max(np.abs(run.x - ensemble.x[:, -1])) < 1e-13
+
+
+def test_startup_page_judges_each_line_by_its_median():
+    from experiments import startup
+
+    users = [(9.0, 10.0, 0.9, 1.1), (11.0, 12.0, 1.2, 1.4), (9.5, 10.5, 0.95, 1.2)]
+    text = startup.page([0.01, 0.4, 0.02], [2.0, 3.5, 2.5], [16.0, 14.0, 14.5], users)
+    lines = {row.split(" | ")[0].lstrip("| "): row for row in text.splitlines() if row.startswith("| ")}
+    assert "**0.02** | 0.3 | holds" in lines["`import geomint`, warm (in the process)"]
+    assert "**2.50** | 3 | holds" in lines["`geomint run rigid_body_distinct`, warm (the process)"]
+    assert "**14.50** | 15 | holds" in lines["the same, cold: an empty cache (the process)"]
+    assert "**9.50** | 10 | holds" in lines["first `solve` of a new user system, compilation included"]
+    assert "**0.95** | 1 | holds" in lines["a second process: import, system, solve (in the process)"]
+    late = startup.page([0.01], [3.1], [15.2], [(10.2, 11.0, 1.01, 1.2)])
+    assert late.count("| missed |") == 4 and late.count("| holds |") == 1
