@@ -92,7 +92,8 @@ READING = [
     "shared machine the median over processes moved between 0.93 and 1.08 (0.93, 0.98, 0.98, 1.00, 1.02, 1.03, 1.04, "
     "1.06, 1.08; numbalsoda's own time between 110 and 135 us), so issue 30's line (no more time than LSODA) "
     "holds on some runs and not on others; a run later that day, the machine slower for Python (a one-step call "
-    "70-75 us, 55-70 us earlier that day), read 1.03. Half of geomint's time is still the call's "
+    "70-75 us, 55-70 us earlier that day), read 1.03, and the run on this page, an hour later, 0.98. Half of "
+    "geomint's time is still the call's "
     "fixed cost; of a step's, two `pow` for the PI controller take a tenth (perf) and the rest is the stages' "
     "arithmetic. A longer span or a larger system tips it towards the steps, where LSODA's single evaluation a "
     "step is the harder floor.",

@@ -5,7 +5,13 @@ import os
 import subprocess
 import sys
 
+import numba
 import pytest
+from numba import njit
+from numba.core import event
+from numba.extending import overload
+
+from geomint._kernels import jit
 
 FIRST_SOLVE = """
 import time
@@ -66,3 +72,40 @@ def test_the_pure_python_lane_passes():
     print(result.stdout[-2000:])
     assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-2000:]
     assert " passed" in result.stdout and " failed" not in result.stdout
+
+
+def _compiled_during(call):
+    """The names of the functions numba compiled while ``call()`` ran, and its result."""
+    with event.install_recorder("numba:compile") as recorder:
+        result = call()
+    events = [e for _, e in recorder.buffer if e.is_start and "dispatcher" in e.data]
+    names = {e.data["dispatcher"].py_func.__name__ for e in events}
+    return names, result
+
+
+@pytest.mark.skipif(numba.config.DISABLE_JIT, reason="compiled code only")
+@pytest.mark.parametrize("typed", [True, False], ids=["typed_inline", "numba_overload"])
+def test_typed_inline_inlines_its_implementation_without_compiling_it_alone(typed):
+    """``jit.typed_inline`` types and inlines the implementation an overload returns without compiling it on its
+    own, which numba's ``overload(inline="always")`` does (the implementation shows among the compiled
+    functions: the case that shows this test can fail)."""
+    if typed and not jit.TYPED_INLINE:
+        pytest.skip(f"numba {numba.__version__} is not among the versions typed_inline was checked with")
+
+    def doubled(x):
+        return 2.0 * x
+
+    register = jit.typed_inline(doubled) if typed else overload(doubled, inline="always", jit_options=jit.OVERLOADED)
+
+    @register
+    def _doubled_typed(x):
+        return lambda x: 2.0 * x  # an implementation numba would compile on its own as "<lambda>"
+
+    @njit
+    def caller(x):
+        return doubled(x) + 1.0
+
+    compiled, value = _compiled_during(lambda: caller(3.0))
+    assert value == 7.0
+    assert ("<lambda>" in compiled) is not typed
+    assert "caller" in compiled

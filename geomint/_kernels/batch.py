@@ -16,10 +16,9 @@ the kernel is compiled, as the loop chooses.
 
 import numpy as np
 from numba import njit
-from numba.extending import overload
 
 from .._cache import CACHE
-from .jit import OVERLOADED
+from .jit import typed_inline
 from .layout import C_STOP, OK, STATUS, Model, ModelN
 from .loop import Output, run
 from .state import _is_n, _typed_n
@@ -49,7 +48,7 @@ def own_model(model, params, origin):
     return _own_n(model, params, origin) if _is_n(model) else _own3(model, params, origin)
 
 
-@overload(own_model, inline="always", jit_options=OVERLOADED)
+@typed_inline(own_model)
 def _own_model_typed(model, params, origin):
     if _typed_n(model):
         return lambda model, params, origin: _own_n(model, params, origin)

@@ -16,9 +16,9 @@ until it returns.  In Python (``NUMBA_DISABLE_JIT=1``) it returns ``value`` itse
 
 from llvmlite import ir
 from numba.core import cgutils, types
-from numba.extending import intrinsic, overload
+from numba.extending import intrinsic
 
-from .jit import OVERLOADED
+from .jit import typed_inline
 
 
 def borrowed(value):
@@ -49,6 +49,6 @@ def _uncounted(typingctx, value):
     return value(value), codegen
 
 
-@overload(borrowed, inline="always", jit_options=OVERLOADED)
+@typed_inline(borrowed)
 def _borrowed_typed(value):
     return lambda value: _uncounted(value)  # pyright: ignore[reportCallIssue]  # the typing context is numba's

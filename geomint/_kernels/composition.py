@@ -48,11 +48,10 @@ Caller: ``step.step`` (and ``control.Counting``'s attempts, which count S rises)
 """
 
 import numpy as np
-from numba.extending import overload
 
 from .dg_step import discrete_gradient_step
 from .exact_flows import rigid_body_flow, rotation, rotor_splitting
-from .jit import OVERLOADED, hot, inner
+from .jit import hot, inner, typed_inline
 from .layout import (
     EPS,
     GRADIENT,
@@ -167,7 +166,7 @@ def _leaf_step_for(present):
 leaf_step = _leaf_step_for({RK4Leaf, *KIND_MARKERS.values(), RigidBodyFlowLeaf, RotorSplittingLeaf, RotationLeaf})
 
 
-@overload(leaf_step, inline="always", jit_options=OVERLOADED)
+@typed_inline(leaf_step)
 def _leaf_step_typed(uses, coeffs, iopts, row, model, eps, hamiltonian, buf, x, comp, H_x, S_x, h, work):
     return _leaf_step_for({marker.instance_class for marker in uses.types})
 
@@ -186,7 +185,7 @@ def stage_kind(uses, code):
     return code
 
 
-@overload(stage_kind, inline="always", jit_options=OVERLOADED)
+@typed_inline(stage_kind)
 def _stage_kind_typed(uses, code):
     at = [k for k, marker in enumerate(uses.types) if marker.instance_class in KIND_MARKERS.values()]
     if len(at) == 1:
@@ -201,7 +200,7 @@ def stage_damped(uses, flag):
     return flag
 
 
-@overload(stage_damped, inline="always", jit_options=OVERLOADED)
+@typed_inline(stage_damped)
 def _stage_damped_typed(uses, flag):
     if any(marker.instance_class is Damped for marker in uses.types):
         return lambda uses, flag: flag

@@ -58,13 +58,12 @@ from collections import namedtuple
 
 import numpy as np
 from numba import njit
-from numba.extending import overload
 
 from .._cache import CACHE
 from .composition import composed_step
 from .control_n import estimated_by_doubling_n, estimated_discrete_gradient_n, estimated_pair_n, first_step_n
 from .field import field
-from .jit import OVERLOADED, hot, inner
+from .jit import hot, inner, typed_inline
 from .layout import (
     C_BASE,
     C_COUNT,
@@ -253,7 +252,7 @@ def estimated_step(method, control, model, eps, hamiltonian, buf, x, comp, ancho
     return estimates[type(method)](method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work)
 
 
-@overload(estimated_step, inline="always", jit_options=OVERLOADED)
+@typed_inline(estimated_step)
 def _estimated_step_typed(method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work):
     impl = (_ESTIMATED_N if model.instance_class is ModelN else _ESTIMATED)[method.instance_class]
     return lambda method, control, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work: impl(
@@ -424,7 +423,7 @@ def any_first_step(model, eps, hamiltonian, x0, t0, t_end, control):
     return chosen(model, eps, hamiltonian, x0, t0, t_end, control)
 
 
-@overload(any_first_step, inline="always", jit_options=OVERLOADED)
+@typed_inline(any_first_step)
 def _any_first_step_typed(model, eps, hamiltonian, x0, t0, t_end, control):
     chosen = first_step_n if model.instance_class is ModelN else first_step
     return lambda model, eps, hamiltonian, x0, t0, t_end, control: chosen(
@@ -505,25 +504,25 @@ def start(control, model, eps, hamiltonian, x0, clock, t_end):
     return _CONTROLLERS[type(control)]["start"](control, model, eps, hamiltonian, x0, clock, t_end)
 
 
-@overload(traits, inline="always", jit_options=OVERLOADED)
+@typed_inline(traits)
 def _traits_typed(control):
     impl = _CONTROLLERS[control.instance_class]["traits"]
     return lambda control: impl(control)
 
 
-@overload(now, inline="always", jit_options=OVERLOADED)
+@typed_inline(now)
 def _now_typed(control, clock):
     impl = _CONTROLLERS[control.instance_class]["now"]
     return lambda control, clock: impl(control, clock)
 
 
-@overload(propose, inline="always", jit_options=OVERLOADED)
+@typed_inline(propose)
 def _propose_typed(control, clock, t_now, target):
     impl = _CONTROLLERS[control.instance_class]["propose"]
     return lambda control, clock, t_now, target: impl(control, clock, t_now, target)
 
 
-@overload(attempt, inline="always", jit_options=OVERLOADED)
+@typed_inline(attempt)
 def _attempt_typed(control, method, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work):
     impl = _CONTROLLERS[control.instance_class]["attempt"]
     return lambda control, method, model, eps, hamiltonian, buf, x, comp, anchor, S_x, h, work: impl(
@@ -531,7 +530,7 @@ def _attempt_typed(control, method, model, eps, hamiltonian, buf, x, comp, ancho
     )
 
 
-@overload(accept, inline="always", jit_options=OVERLOADED)
+@typed_inline(accept)
 def _accept_typed(control, clock, t_now, h, err, landing, target, exponent, after_rejection):
     impl = _CONTROLLERS[control.instance_class]["accept"]
     return lambda control, clock, t_now, h, err, landing, target, exponent, after_rejection: impl(
@@ -539,7 +538,7 @@ def _accept_typed(control, clock, t_now, h, err, landing, target, exponent, afte
     )
 
 
-@overload(start, inline="always", jit_options=OVERLOADED)
+@typed_inline(start)
 def _start_typed(control, model, eps, hamiltonian, x0, clock, t_end):
     impl = _CONTROLLERS[control.instance_class]["start"]
     return lambda control, model, eps, hamiltonian, x0, clock, t_end: impl(

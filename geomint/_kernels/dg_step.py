@@ -11,10 +11,9 @@ it) gives that back along grad S (``projection.lower_S``).
 
 import numpy as np
 from numba import types
-from numba.extending import overload
 
 from .field import field
-from .jit import OVERLOADED, hot, inner
+from .jit import hot, inner, typed_inline
 from .layout import EPS, NEWTON_FAILED, OK, UNKNOWN, W_H, W_HISTORY, W_JACOBIAN_VALID, Damped, StepResult, Undamped
 from .newton import ACCEPT_ULPS, THETA_REFRESH, attempts, jacobian, newton, newton_matrix, predictor, remember
 from .projection import S_CAP_ULPS, lower_S
@@ -35,7 +34,7 @@ def damped_eps(damped, model, eps, buf, x, h):
     return (eps * damping_factor(model, eps, buf, x, h), 4) if on else (eps, 0)
 
 
-@overload(damped_eps, inline="always", jit_options=OVERLOADED)
+@typed_inline(damped_eps)
 def _damped_eps_typed(damped, model, eps, buf, x, h):
     marker = getattr(damped, "instance_class", None) if isinstance(damped, types.BaseNamedTuple) else None
     if marker is Undamped:

@@ -12,12 +12,11 @@ section 2).  ``discrete_field`` is compiled once per kind of discrete gradient
 
 import numpy as np
 from numba import njit, types
-from numba.extending import overload
 
 from .._cache import CACHE
 from .dispatch import INLINED, by_code
 from .field import dissipative
-from .jit import OVERLOADED, hot, inner
+from .jit import hot, inner, typed_inline
 from .layout import EPS
 from .roundoff import origin_terms, term_scale
 from .vec3 import ZERO, as_vector, axpy, cross, dot, is_finite, load, norm_inf, scale, sub
@@ -192,7 +191,7 @@ def discrete_field(kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, 
     return field(kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales)
 
 
-@overload(discrete_field, inline="always", jit_options=OVERLOADED)
+@typed_inline(discrete_field)
 def _discrete_field_typed(kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales):
     field = _FIELD_BY_CODE if isinstance(kind, types.Integer) else _FIELDS[kind.instance_class]
     return lambda kind, coeffs, model, eps, hamiltonian, buf, x, H_old, S_old, x_new, h, scales: field(

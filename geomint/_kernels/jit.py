@@ -20,11 +20,27 @@ callers (numba's ``forceinline``), sparing the thirty-odd scalar arguments
 and the result through memory of a call.  ``forceinline`` is inherited by
 the kernels that a kernel's compilation compiles first, so ``inner`` turns
 it off explicitly.  Measurements: docs/design.md sections 5 and 5a.
+
+``typed_inline(fn)`` is numba's ``overload(fn, inline="always")`` for the
+kernels' choices by type (the step by the method's type, the controller's
+parts by the controller's, R^3 or R^n by the model's): the implementation the
+overload returns is typed and inlined into its caller, as numba does, but not
+first compiled to machine code on its own.  numba's ``overload`` compiles each
+such implementation completely, the kernels it calls linked and optimised
+again, only to learn its type, then throws that code away: a quarter of the
+first solve of a new system, an eighth of a cold command line (docs/startup.md).
+``typed_inline`` subclasses numba's overload template for that one step, for
+the numba versions it was checked with (``TYPED_INLINE``); with others it is
+numba's ``overload`` itself: the same code, compiled slower.
 """
 
-from typing import Any
+from typing import Any, Callable
 
+import numba
 from numba import njit
+from numba.core import types
+from numba.core.typing import templates
+from numba.extending import overload
 
 # (no_cpython_wrapper and no_cfunc_wrapper are numba's own options, which its stubs for njit do not list)
 inner = njit(
@@ -45,3 +61,70 @@ hot = njit(
 #: called
 #: (typed ``Any``: numba's stubs for ``jit_options`` do not list its wrapper options, as for ``inner`` above)
 OVERLOADED: Any = {"error_model": "numpy", "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+
+
+#: the numba versions (major, minor) whose overload template ``typed_inline`` was written against and run with
+#: (0.68.1); any other is given numba's ``overload`` itself
+CHECKED_NUMBA = ((0, 68), (0, 68))
+
+
+def _typed_inline_template() -> Any:
+    """numba's template of an ``overload(..., inline="always")`` without the compilation of the implementation on
+    its own (the module docstring), or None for a numba version it was not checked with."""
+    version = tuple(int(part) for part in numba.__version__.split(".")[:2])
+    base = getattr(templates, "_OverloadFunctionTemplate", None)
+    if not CHECKED_NUMBA[0] <= version <= CHECKED_NUMBA[1] or base is None:
+        return None
+
+    class TypedInline(base):  # pyright: ignore[reportGeneralTypeIssues, reportUntypedBaseClass]
+        def _build_impl(self, cache_key, args, kws):
+            """numba's ``_build_impl`` for an implementation that is only ever inlined: the dispatcher made, not
+            compiled (``generic`` types its IR for the caller, which inlines it)."""
+            implementation = self._overload_func(*args, **kws)
+            if implementation is None:
+                self._impl_cache[cache_key] = None, None
+                return None, None
+            dispatcher = self._get_jit_decorator()(**self._jit_options)(implementation)
+            dispatcher._can_compile = False  # numba's get_call_template compiles a dispatcher that can
+            self._impl_cache[cache_key] = dispatcher, args
+            return dispatcher, args
+
+    return TypedInline
+
+
+_TYPED_INLINE = _typed_inline_template()
+#: numba's inlining option of an ``overload(inline="always")``, as ``make_overload_template`` sets it
+_ALWAYS: Any = None if _TYPED_INLINE is None else templates.InlineOptions("always")  # pyright: ignore[reportPrivateImportUsage]
+#: whether ``typed_inline`` skips numba's compilation of the implementations (False: it is numba's ``overload``)
+TYPED_INLINE = _TYPED_INLINE is not None
+
+
+def typed_inline(fn: Callable[..., Any], jit_options: Any = None) -> Callable[[Any], Any]:
+    """``numba.extending.overload(fn, inline="always", jit_options=OVERLOADED)`` whose implementations are typed
+    and inlined into their callers without being compiled on their own (the module docstring)."""
+    options = OVERLOADED if jit_options is None else jit_options
+    if _TYPED_INLINE is None:
+        return overload(fn, inline="always", jit_options=options)
+
+    def decorate(overload_func: Callable[..., Any]) -> Callable[..., Any]:
+        template = type(_TYPED_INLINE)(
+            f"TypedInline_{fn.__name__}",
+            (_TYPED_INLINE,),
+            dict(
+                key=fn,
+                _overload_func=staticmethod(overload_func),
+                _impl_cache={},
+                _compiled_overloads={},
+                _jit_options={"nopython": True, **options},
+                _strict=False,
+                _inline=staticmethod(_ALWAYS),
+                _inline_overloads={},
+                prefer_literal=False,
+                metadata={},
+            ),
+        )
+        templates.infer(template)
+        templates.infer_global(fn, types.Function(template))
+        return overload_func
+
+    return decorate

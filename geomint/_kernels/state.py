@@ -14,12 +14,11 @@ n, n, 1, 1 in R^n), so the anchor and S are its last two entries in both.
 
 import numpy as np
 from numba import njit, types
-from numba.extending import overload
 
 from .composition import pull_back
 from .field import non_finite_culprit
 from .field_n import non_finite_culprit_n
-from .jit import OVERLOADED, inner
+from .jit import inner, typed_inline
 from .layout import ModelN
 from .step_n import V_C, V_R, to_level, vector
 from .vec3 import flush_tiny, is_finite, load, same
@@ -58,7 +57,7 @@ def start_point(model, state):
     return state[: (state.shape[0] - 2) // 2] if _is_n(model) else state[:3]
 
 
-@overload(start_point, inline="always", jit_options=OVERLOADED)
+@typed_inline(start_point)
 def _start_point_typed(model, state):
     if _typed_n(model):
         return lambda model, state: state[: (state.shape[0] - 2) // 2]
@@ -70,7 +69,7 @@ def unpack(model, state):
     return _unpack_n(state) if _is_n(model) else _unpack3(state)
 
 
-@overload(unpack, inline="always", jit_options=OVERLOADED)
+@typed_inline(unpack)
 def _unpack_typed(model, state):
     return (lambda model, state: _unpack_n(state)) if _typed_n(model) else (lambda model, state: _unpack3(state))
 
@@ -91,7 +90,7 @@ def pack(state, x, comp):
     return _pack_n(state, x, comp) if _is_n(x) else _pack3(state, x, comp)
 
 
-@overload(pack, inline="always", jit_options=OVERLOADED)
+@typed_inline(pack)
 def _pack_typed(state, x, comp):
     return (lambda state, x, comp: None) if _typed_n(x) else (lambda state, x, comp: _pack3(state, x, comp))
 
@@ -101,7 +100,7 @@ def point(buf, x):
     return x if _is_n(x) else load(buf, x)
 
 
-@overload(point, inline="always", jit_options=OVERLOADED)
+@typed_inline(point)
 def _point_typed(buf, x):
     return (lambda buf, x: x) if _typed_n(x) else (lambda buf, x: load(buf, x))
 
@@ -111,7 +110,7 @@ def flushed(x, comp):
     return (x, comp) if _is_n(x) else flush_tiny(x, comp)
 
 
-@overload(flushed, inline="always", jit_options=OVERLOADED)
+@typed_inline(flushed)
 def _flushed_typed(x, comp):
     return (lambda x, comp: (x, comp)) if _typed_n(x) else (lambda x, comp: flush_tiny(x, comp))
 
@@ -120,7 +119,7 @@ def finite(x):
     return all_finite(x) if _is_n(x) else is_finite(x)
 
 
-@overload(finite, inline="always", jit_options=OVERLOADED)
+@typed_inline(finite)
 def _finite_typed(x):
     return (lambda x: all_finite(x)) if _typed_n(x) else (lambda x: is_finite(x))
 
@@ -130,7 +129,7 @@ def unchanged(x, y):
     return True if _is_n(x) else same(x, y)
 
 
-@overload(unchanged, inline="always", jit_options=OVERLOADED)
+@typed_inline(unchanged)
 def _unchanged_typed(x, y):
     return (lambda x, y: True) if _typed_n(x) else (lambda x, y: same(x, y))
 
@@ -140,7 +139,7 @@ def keep(x, x_new):
     return copy_into(x, x_new) if _is_n(x) else x_new
 
 
-@overload(keep, inline="always", jit_options=OVERLOADED)
+@typed_inline(keep)
 def _keep_typed(x, x_new):
     return (lambda x, x_new: copy_into(x, x_new)) if _typed_n(x) else (lambda x, x_new: x_new)
 
@@ -151,7 +150,7 @@ def save_row(rows, row, x):
         rows[row, i] = x[i]
 
 
-@overload(save_row, inline="always", jit_options=OVERLOADED)
+@typed_inline(save_row)
 def _save_row_typed(rows, row, x):
     if _typed_n(x):
 
@@ -174,7 +173,7 @@ def culprit_of(model, buf, x, hamiltonian):
     return non_finite_culprit(model, buf, x, hamiltonian)
 
 
-@overload(culprit_of, inline="always", jit_options=OVERLOADED)
+@typed_inline(culprit_of)
 def _culprit_typed(model, buf, x, hamiltonian):
     if _typed_n(model):
         return lambda model, buf, x, hamiltonian: non_finite_culprit_n(model, x, hamiltonian)
@@ -196,7 +195,7 @@ def pulled_back(model, buf, y, H_y, S_y, anchor, S_limit, max_iter, work):
     return pull_back(model, buf, y, H_y, S_y, anchor, S_limit, max_iter)
 
 
-@overload(pulled_back, inline="always", jit_options=OVERLOADED)
+@typed_inline(pulled_back)
 def _pulled_back_typed(model, buf, y, H_y, S_y, anchor, S_limit, max_iter, work):
     if _typed_n(model):
         return lambda model, buf, y, H_y, S_y, anchor, S_limit, max_iter, work: _pull_back_n(

@@ -8,12 +8,11 @@ the same choice is made in Python.
 """
 
 from numba import njit
-from numba.extending import overload
 
 from .composition import composed_step
 from .composition_n import composed_step_n
 from .dg_step import discrete_gradient_step
-from .jit import OVERLOADED
+from .jit import typed_inline
 from .layout import (
     NO_PROJECTION,
     P_PROJECTION,
@@ -115,7 +114,7 @@ def step(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
     return steps[type(method)](method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work)
 
 
-@overload(step, inline="always", jit_options=OVERLOADED)
+@typed_inline(step)
 def _step_typed(method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work):
     impl = (_STEPS_N if model.instance_class is ModelN else _STEPS)[method.instance_class]
     return lambda method, model, eps, hamiltonian, buf, x, comp, H_anchor, S_x, h, work: impl(
@@ -135,7 +134,7 @@ def keeps_S(method, model):
     return isinstance(method, ComposedStep) and method.iopts[P_PROJECTION] == NO_PROJECTION
 
 
-@overload(keeps_S, inline="always")
+@typed_inline(keeps_S)
 def _keeps_S_typed(method, model):
     if model.instance_class is ModelN or method.instance_class not in (DiscreteGradientStep, ComposedStep):
         return lambda method, model: False
