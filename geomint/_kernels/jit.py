@@ -66,65 +66,41 @@ OVERLOADED: Any = {"error_model": "numpy", "no_cpython_wrapper": True, "no_cfunc
 #: the numba versions (major, minor) whose overload template ``typed_inline`` was written against and run with
 #: (0.68.1); any other is given numba's ``overload`` itself
 CHECKED_NUMBA = ((0, 68), (0, 68))
-
-
-def _typed_inline_template() -> Any:
-    """numba's template of an ``overload(..., inline="always")`` without the compilation of the implementation on
-    its own (the module docstring), or None for a numba version it was not checked with."""
-    version = tuple(int(part) for part in numba.__version__.split(".")[:2])
-    base = getattr(templates, "_OverloadFunctionTemplate", None)
-    if not CHECKED_NUMBA[0] <= version <= CHECKED_NUMBA[1] or base is None:
-        return None
-
-    class TypedInline(base):  # pyright: ignore[reportGeneralTypeIssues, reportUntypedBaseClass]
-        def _build_impl(self, cache_key, args, kws):
-            """numba's ``_build_impl`` for an implementation that is only ever inlined: the dispatcher made, not
-            compiled (``generic`` types its IR for the caller, which inlines it)."""
-            implementation = self._overload_func(*args, **kws)
-            if implementation is None:
-                self._impl_cache[cache_key] = None, None
-                return None, None
-            dispatcher = self._get_jit_decorator()(**self._jit_options)(implementation)
-            dispatcher._can_compile = False  # numba's get_call_template compiles a dispatcher that can
-            self._impl_cache[cache_key] = dispatcher, args
-            return dispatcher, args
-
-    return TypedInline
-
-
-_TYPED_INLINE = _typed_inline_template()
-#: numba's inlining option of an ``overload(inline="always")``, as ``make_overload_template`` sets it
-_ALWAYS: Any = None if _TYPED_INLINE is None else templates.InlineOptions("always")  # pyright: ignore[reportPrivateImportUsage]
 #: whether ``typed_inline`` skips numba's compilation of the implementations (False: it is numba's ``overload``)
-TYPED_INLINE = _TYPED_INLINE is not None
+TYPED_INLINE = CHECKED_NUMBA[0] <= tuple(int(part) for part in numba.__version__.split(".")[:2]) <= CHECKED_NUMBA[1]
 
 
-def typed_inline(fn: Callable[..., Any], jit_options: Any = None) -> Callable[[Any], Any]:
+class _Uncompiled:
+    """Put before numba's overload template (``make_overload_template``): its ``_build_impl`` for an
+    implementation that is only ever inlined, the dispatcher made but not compiled (numba's ``generic`` types its
+    IR for the caller, which inlines it)."""
+
+    def _build_impl(self: Any, cache_key, args, kws):
+        implementation = self._overload_func(*args, **kws)
+        if implementation is None:
+            self._impl_cache[cache_key] = None, None
+            return None, None
+        dispatcher = self._get_jit_decorator()(**self._jit_options)(implementation)
+        dispatcher._can_compile = False  # numba's get_call_template compiles a dispatcher that can
+        self._impl_cache[cache_key] = dispatcher, args
+        return dispatcher, args
+
+
+def typed_inline(fn: Callable[..., Any]) -> Callable[[Any], Any]:
     """``numba.extending.overload(fn, inline="always", jit_options=OVERLOADED)`` whose implementations are typed
     and inlined into their callers without being compiled on their own (the module docstring)."""
-    options = OVERLOADED if jit_options is None else jit_options
-    if _TYPED_INLINE is None:
-        return overload(fn, inline="always", jit_options=options)
+    if not TYPED_INLINE:
+        return overload(fn, inline="always", jit_options=OVERLOADED)
 
     def decorate(overload_func: Callable[..., Any]) -> Callable[..., Any]:
-        template = type(_TYPED_INLINE)(
-            f"TypedInline_{fn.__name__}",
-            (_TYPED_INLINE,),
-            dict(
-                key=fn,
-                _overload_func=staticmethod(overload_func),
-                _impl_cache={},
-                _compiled_overloads={},
-                _jit_options={"nopython": True, **options},
-                _strict=False,
-                _inline=staticmethod(_ALWAYS),
-                _inline_overloads={},
-                prefer_literal=False,
-                metadata={},
-            ),
-        )
-        templates.infer(template)
-        templates.infer_global(fn, types.Function(template))
+        options = {"nopython": True, **OVERLOADED}  # numba's overload adds nopython to the options it is given
+        made: Any = templates.make_overload_template(fn, overload_func, options, False, "always")
+
+        class TypedInline(_Uncompiled, made):
+            pass
+
+        templates.infer(TypedInline)
+        templates.infer_global(fn, types.Function(TypedInline))
         return overload_func
 
     return decorate
