@@ -97,6 +97,19 @@ READING = [
     "fixed cost; of a step's, two `pow` for the PI controller take a tenth (perf) and the rest is the stages' "
     "arithmetic. A longer span or a larger system tips it towards the steps, where LSODA's single evaluation a "
     "step is the harder floor.",
+    "**Ahead, later that day.** Timed statement by statement inside `solve` (a run of 181 steps, one process): the "
+    "compiled call 57 us, the rest 35 us, of which the check that H and S are finite at x0 took 3-10 us (two "
+    "calls of user functions from Python, each through numba's dispatcher), building the Solution 8 us. The "
+    "check now reads H(x0) and S(x0) from the run's first row, which the loop evaluates anyway "
+    "(`solve._check_start`: where either is not finite, or a user function raised, the same check runs as "
+    "before and raises the same error; `tests/test_user_errors.py`); the Solution reads its counters once and "
+    "its status from a dict. Measured against the commit before in alternating fresh processes, 6 each, the "
+    "same hour: this page's head-to-head, geomint / numbalsoda 0.91-0.97 (median 0.94) before, 0.75-0.93 "
+    "(median 0.86) after; with a one-step `solve` timed between the two (101 interleaved runs per process), "
+    "0.79-0.98 (median 0.93) before, 0.75-0.90 (median 0.76) after, the one-step call 43-72 us before and "
+    "41-54 us after. Runs of this page alone, that hour: 0.93, 0.93, 0.96 (the last is the one below). The "
+    "head-to-head processes now run with OpenBLAS single-threaded (`OPENBLAS_NUM_THREADS=1`): neither side "
+    "calls BLAS, and its idle threads, seen polling in perf, stay off the second core.",
 ]
 
 
@@ -174,7 +187,9 @@ def head_to_head(rows, chosen):
     best = min(exact, key=lambda row: row[-1])[0]
     command = [sys.executable, "-m", "experiments.adaptive", "--head-to-head", best, repr(chosen[best])]
     command.append(repr(chosen[peer]))
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    # OpenBLAS single-threaded: neither side calls BLAS, and its idle threads (seen polling in perf) stay off the
+    # second core of a two-core machine
+    env = dict(os.environ, PYTHONPATH=str(ROOT), OPENBLAS_NUM_THREADS="1")
     runs = [
         json.loads(subprocess.run(command, cwd=ROOT, env=env, capture_output=True, check=True, text=True).stdout)
         for _ in range(PROCESSES)

@@ -272,6 +272,17 @@ def test_a_terminal_event_with_a_count_stops_at_that_occurrence():
     assert sol.status == 1 and len(sol.t_events[0]) == 3 and sol.t[-1] == sol.t_events[0][-1]
 
 
+def test_an_event_that_never_occurs_gives_empty_arrays_as_scipy():
+    """No zero of the event over the span: its times are an empty array and its states an empty (0, n) array,
+    in R^3 and in R^n, beside an event that occurs; the run succeeds as without events."""
+    sol = geomint.solve(BODY, M0, (0.0, 30.0), rtol=1e-8, events=[lambda t, x: x[2] - 5.0, lambda t, x: x[1]])
+    assert sol.status == 0 and sol.t_events[0].shape == (0,) and sol.x_events[0].shape == (0, 3)
+    assert len(sol.t_events[1]) > 0 and sol.x_events[1].shape == (len(sol.t_events[1]), 3)
+    gas = geomint.systems.gas_containers()
+    sol = geomint.solve(gas, [1.5, 0.0, 2.0, 2.0], (0.0, 1.0), rtol=1e-8, events=lambda t, x: x[2] - 5.0)
+    assert sol.success and sol.t_events[0].shape == (0,) and sol.x_events[0].shape == (0, 4)
+
+
 def test_relaxed_stops_when_the_state_has_settled():
     sol = geomint.solve(BODY, M0, (0.0, 1e4), rtol=1e-9, atol=1e-12, events=geomint.events.relaxed(BODY, 1e-8))
     assert sol.status == 1 and sol.t[-1] < 1e4

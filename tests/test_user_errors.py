@@ -104,3 +104,35 @@ def test_an_array_of_the_wrong_shape_mid_run_fails_the_step_naming_the_function(
     sol = geomint.solve(system, [0.1, 0.95, 0.3], (0.0, 10.0), 0.01, method=method)
     assert sol.status == -2 and "`grad_H` returned a non-finite value or an array of the wrong shape" in sol.message
     assert np.all(sol.x[:-1, 0] <= 0.9) and np.all(np.isfinite(sol.x))
+
+
+@numba.njit
+def _H_nan_beyond_one(x, p):
+    if x[0] > 1.0:
+        return np.nan
+    return 0.5 * (x[0] ** 2 + x[1] ** 2 + x[2] ** 2)
+
+
+_RUNS = {
+    "fixed": dict(h=0.01),
+    "adaptive": dict(rtol=1e-8),
+    "t_eval": dict(h=0.01, t_eval=[0.5, 1.0]),
+    "events": dict(rtol=1e-8, events=lambda t, x: x[2] - 0.5),
+}
+
+
+@pytest.mark.parametrize("run", sorted(_RUNS))
+def test_a_start_where_H_is_not_finite_or_raises_is_refused_before_any_result(run):
+    """``solve`` reads H(x0) and S(x0) from its run's first row (the loop evaluates them there): a start where
+    either is not finite, or where one raises, is refused with the error a check before the run gives, on every
+    path of the run, in R^3 and in R^n (the gas containers outside 0 < q < 2); a start next to it runs."""
+    kwargs = _RUNS[run]
+    with pytest.raises(ValueError, match=r"H and S must be finite at `x0`; at x0 = \[1.5, 0.0, 0.3\] H = nan"):
+        geomint.solve(_oscillator(H=_H_nan_beyond_one), [1.5, 0.0, 0.3], (0.0, 1.0), **kwargs)
+    with pytest.raises(geomint.UserFunctionError, match=r"`H` raised ZeroDivisionError.* at x = \[1.5, 0.0, 0.3\]"):
+        geomint.solve(_oscillator(H=_H_raising_beyond_one), [1.5, 0.0, 0.3], (0.0, 1.0), **kwargs)
+    gas = geomint.systems.gas_containers()
+    with pytest.raises(ValueError, match=r"H and S must be finite at `x0`; at x0 = \[2.5, 0.0, 2.0, 2.0\]"):
+        geomint.solve(gas, [2.5, 0.0, 2.0, 2.0], (0.0, 1.0), **kwargs)
+    assert geomint.solve(_oscillator(H=_H_raising_beyond_one), [0.5, 0.0, 0.3], (0.0, 1.0), **kwargs).success
+    assert geomint.solve(gas, [1.5, 0.0, 2.0, 2.0], (0.0, 1.0), **kwargs).success

@@ -227,14 +227,11 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
         (model, method, control, state, work, clock, stops, out)
     )
     counters = out.counters
-    p = model.params
     x, comp = unpack(model, state)
     if counters[ROWS] == 0:
-        at = point(buf, x)
-        H0 = model.H(at, p)
+        H0, state[S_AT] = _values(model, buf, x, True, np.nan)  # NaN where a user function raised at x0
         if np.isnan(state[ANCHOR]):
             state[ANCHOR] = H0
-        state[S_AT] = model.S(at, p)
         _save(out, clock[C_T], x, H0, state[S_AT])
         # the first step of an adaptive run, when not given, is chosen here (so a solve and a trajectory of an
         # ensemble choose the same); a user function raising there fails the first step, as one raising in it

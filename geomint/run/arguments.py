@@ -59,13 +59,14 @@ def check_states(value: object, name: str, one: bool = True, dim: int = DIMENSIO
 
 
 def check_state(
-    x0: npt.ArrayLike, system: MetriplecticSystem | None = None, name: str = "x0"
+    x0: npt.ArrayLike, system: MetriplecticSystem | None = None, name: str = "x0", functions: bool = True
 ) -> npt.NDArray[np.float64]:
-    """One finite state (``check_states``), with H and S finite there when ``system`` is given."""
+    """One finite state (``check_states``) of ``system``'s dimension, with H and S finite there when ``system``
+    is given and ``functions`` (False: the caller checks them, ``solve`` from its run's first row)."""
     x = check_states(x0, name, dim=getattr(system, "dim", DIMENSION))
     if not all(map(math.isfinite, x.tolist())):  # (for a few coordinates, a fifth of numpy's isfinite and all)
         raise ValueError(f"`{name}` must be finite; got {x.tolist()}.")
-    if system is not None:
+    if system is not None and functions:
         H0, S0 = system.H_and_S(x)
         if not (np.isfinite(H0) and np.isfinite(S0)):
             raise ValueError(f"H and S must be finite at `{name}`; at {name} = {x.tolist()} H = {H0!r}, S = {S0!r}.")

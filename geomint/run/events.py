@@ -234,11 +234,12 @@ class Events:
         except (ValueError, ArithmeticError):
             return float(cast(float, brentq(lambda s: float(g(s, u(s))), lo, hi, **tolerances)))
 
-    def arrays(self) -> tuple[list[npt.NDArray[np.float64]], list[npt.NDArray[np.float64]]]:
-        """``(t_events, x_events)``: per event, an array of times and an ``(m, n)`` array of states."""
+    def arrays(self, dim: int) -> tuple[list[npt.NDArray[np.float64]], list[npt.NDArray[np.float64]]]:
+        """``(t_events, x_events)``: per event, an array of times and an ``(m, dim)`` array of states (m = 0
+        for an event that never occurred, as scipy's)."""
         return (
             [np.array(ts, dtype=np.float64) for ts in self.t_events],
-            [np.array(xs, dtype=np.float64).reshape(len(xs), -1) for xs in self.x_events],
+            [np.array(xs, dtype=np.float64).reshape(len(xs), dim) for xs in self.x_events],
         )
 
 

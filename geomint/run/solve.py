@@ -22,11 +22,11 @@ from .checkpoint import check_checkpoint, resume_checkpoint, run_id, write_check
 from .chunks import FIRST_CHUNK, interrupts, new_output, new_run_state, next_chunk, run_chunk, save_interrupted
 from .controller import RTOL, check_step_or_control, constant_grid, landing_control
 from .events import Events, fields
-from .status import Status
+from .status import BY_CODE, Status
 
 if TYPE_CHECKING:
     import os
-    from collections.abc import Callable, Iterable
+    from collections.abc import Callable, Iterable, Sequence
 
     import numpy.typing as npt
 
@@ -54,6 +54,10 @@ PER_STEP_RTOL_FLOOR = 1e-5
 
 #: fixed steps: a run whose ``|h|`` times the field's local rate exceeds this is flagged (see ``step_ratio``)
 STEP_RATIO_LIMIT = 1e3
+
+
+#: the outcomes that reached the run's end (``Status.success``)
+_REACHED = (Status.OK, Status.TERMINATED)
 
 
 #: rows an adaptive run starts with (doubled as it needs)
@@ -199,7 +203,7 @@ def solve(
             f"eps = {system.eps!r}. Use it inside Strang(...) or on system.with_effects(eps=0)."
         )
     integrator.check_system(system)
-    x0 = check_state(x0, system)
+    x0 = check_state(x0, system, functions=False)  # H and S at x0: from the run's first row (_check_start)
     t0, t_end = check_span(t_span)
     step_data = integrator.lower(system)
     if isinstance(system, MetriplecticSystemN):
@@ -398,12 +402,15 @@ def _on_grid(system, integrator, step_data, x0, t0, t_end, h, save_every, progre
     clock = _layout.new_clock(t0 + k_begin * grid.h, steps=k_begin)
     stops = np.array([t_end])
     with _user_errors.catching(counters) as raised, interrupts() as interrupted:
-        chunk, checkpointed = FIRST_CHUNK, k_begin
+        chunk, checkpointed, checked = FIRST_CHUNK, k_begin, False
         while k_begin < n_steps and counters[_layout.STATUS] == _layout.OK:
             k_end = min(n_steps, k_begin + chunk)
             chunk = next_chunk(
                 chunk, run_chunk(system, step_data, grid, state, work, clock, stops, k_end - k_begin, out)
             )
+            if not checked:
+                _check_start(system, x0, out)
+                checked = True
             k_begin = k_end
             if progress is not None:
                 progress(int(counters[_layout.STEPS]))
@@ -441,7 +448,10 @@ def _to_stops(
         while clock[_layout.C_STOP] < len(stops) and counters[_layout.STATUS] == _layout.OK:
             if counters[_layout.ROWS] == len(out.t):
                 out = _grown(out)
+            first = counters[_layout.ROWS] == 0
             budget = next_chunk(budget, run_chunk(system, step_data, control, state, work, clock, stops, budget, out))
+            if first:
+                _check_start(system, x0, out)
             if progress is not None:
                 progress(int(counters[_layout.STEPS]))
             rows = int(counters[_layout.ROWS])
@@ -467,7 +477,7 @@ def _to_stops(
         # the six fields: t, x, H, S (unpacked, which pyright cannot count), counters and residual
         out = _loop.Output(*(a[:n][keep] for a in out[:4]), counters, out.residual)  # pyright: ignore[reportCallIssue]
         counters[_layout.ROWS] = int(np.count_nonzero(keep))
-    t_events, x_events = events.arrays() if events is not None else (None, None)
+    t_events, x_events = events.arrays(len(x0)) if events is not None else (None, None)
     last_good = float(out.t[int(counters[_layout.ROWS]) - 1]) if counters[_layout.STATUS] < 0 else 0.0
     return _solution(
         system,
@@ -482,26 +492,35 @@ def _to_stops(
     )
 
 
+def _check_start(system, x0, out):
+    """``check_state``'s test that H and S are finite at ``x0``, made after the run's first chunk on the first
+    row, where the loop has evaluated them (two calls of user functions from Python cost a tenth of a short
+    ``solve``): where either is not finite, or a user function raised in the chunk, the test is made again as
+    before a run, and raises as it would have (the chunk's results are dropped; nothing else has seen them)."""
+    if not (math.isfinite(out.H[0]) and math.isfinite(out.S[0])) or out.counters[_layout.RAISED] != 0:
+        check_state(x0, system)
+
+
 def _solution(system, integrator, out, raised, t_from, h, **extra):
-    counters = out.counters
-    n = int(counters[_layout.ROWS])
-    status = Status(int(counters[_layout.STATUS]))
-    failed = int(counters[_layout.FAILED_STEP]) if status.failed else None
+    counters = out.counters.tolist()  # Python ints, read once
+    n = counters[_layout.ROWS]
+    status = BY_CODE[counters[_layout.STATUS]]
+    failed = counters[_layout.FAILED_STEP] if status < 0 else None
     what = raised_message(system, out.x[n - 1], h, raised) if status == Status.USER_RAISED else None
     return Solution(
         t=out.t[:n].copy(),
         x=out.x[:n].copy(),
         H=out.H[:n].copy(),
         S=out.S[:n].copy(),
-        success=status.success,
+        success=status in _REACHED,
         status=status,
         message=run_message(status, failed, out.t[:n], t_from, h, counters, out.residual[0], integrator, what),
         failed_step=failed,
-        n_steps=int(counters[_layout.STEPS]),
-        n_newton=int(counters[_layout.NEWTON_ITERATIONS]),
-        nfev=int(counters[_layout.FIELD_EVALUATIONS]),
+        n_steps=counters[_layout.STEPS],
+        n_newton=counters[_layout.NEWTON_ITERATIONS],
+        nfev=counters[_layout.FIELD_EVALUATIONS],
         method=integrator,
-        n_rejected=int(counters[_layout.REJECTED]),
+        n_rejected=counters[_layout.REJECTED],
         S_direction=float(system.direction),  # -1.0: S never rises (Fish form); +1.0: never falls (GENERIC)
         **extra,
     )
@@ -564,13 +583,13 @@ def run_message(
     t: npt.NDArray[np.float64],
     t_from: float,
     h: float,
-    counters: npt.NDArray[np.int64],
+    counters: npt.NDArray[np.int64] | Sequence[int],
     residual: float,
     integrator: Integrator,
     what: str | None = None,
 ) -> str:
     """The ``message`` of a run (or of one trajectory of an ensemble) that ended with ``status``."""
-    status = Status(status)
+    status = BY_CODE[int(status)]
     rows = len(t)
     steps = int(counters[_layout.STEPS])
     rejected = int(counters[_layout.REJECTED])
