@@ -24,6 +24,8 @@ def real(name: str, value: object) -> float:
     """``value`` as a float, or a TypeError/ValueError naming ``name``."""
     if type(value) is float:
         return value
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        value = value[()]  # a 0-d array: its number, as numpy's own functions take it
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise TypeError(f"`{name}` must be a real number; got {value!r} ({type(value).__name__}).")
     try:

@@ -283,6 +283,46 @@ def test_an_event_that_never_occurs_gives_empty_arrays_as_scipy():
     assert sol.success and sol.t_events[0].shape == (0,) and sol.x_events[0].shape == (0, 4)
 
 
+@pytest.mark.parametrize("h", [None, 0.125], ids=["adaptive", "fixed"])
+def test_a_zero_exactly_at_a_step_end_is_one_event(h):
+    """Steps land on t_eval times and on the grid, so g exactly 0 at a step's end is common: it is the end of one
+    step and the start of the next, found once; a zero touched without a sign change, once; a terminal count
+    of 2 is not reached by one zero."""
+    t_eval = [0.25, 0.5, 0.75] if h is None else None
+    sol = geomint.solve(
+        BODY, M0, (0.0, 1.0), h, t_eval=t_eval, events=[lambda t, x: t - 0.5, lambda t, x: (t - 0.5) ** 2]
+    )
+    assert [ts.tolist() for ts in sol.t_events] == [[0.5], [0.5]] and sol.x_events[0].shape == (1, 3)
+
+    def twice(t, x):
+        return t - 0.5
+
+    twice.terminal = 2
+    sol = geomint.solve(BODY, M0, (0.0, 1.0), h, t_eval=t_eval, events=twice)
+    assert sol.status == 0 and sol.t_events[0].tolist() == [0.5]
+
+
+@pytest.mark.parametrize("h", [None, 0.1], ids=["adaptive", "fixed"])
+def test_a_terminal_event_with_t_eval_keeps_its_state_and_counts_the_steps_to_it(h):
+    """A terminal event before the first time of t_eval (the run used to end in an IndexError): the event's
+    state is kept as the last row, as a failed run keeps its last state, the message names its time, and
+    n_steps counts the steps to it (the chunk ran on past it); the same in R^n."""
+
+    def stop(t, x):
+        return t - 0.5
+
+    stop.terminal = True
+    for system, x0 in ((BODY, M0), (geomint.systems.gas_containers(), [1.5, 0.0, 2.0, 2.0])):
+        sol = geomint.solve(system, x0, (0.0, 5.0), h, t_eval=[1.0, 2.0, 3.0], events=stop)
+        assert sol.status == 1 and sol.t.tolist() == [0.5] and sol.t_events[0].tolist() == [0.5]
+        np.testing.assert_array_equal(sol.x_final, sol.x_events[0][0])
+        assert "A termination event occurred at t = 0.5, after" in sol.message
+        full = geomint.solve(system, x0, (0.0, 5.0), h, events=stop)
+        assert full.t[-1] == 0.5 and sol.n_steps == full.n_steps == len(full.t) - 1
+        if h is not None:
+            assert sol.n_steps == 5
+
+
 def test_relaxed_stops_when_the_state_has_settled():
     sol = geomint.solve(BODY, M0, (0.0, 1e4), rtol=1e-9, atol=1e-12, events=geomint.events.relaxed(BODY, 1e-8))
     assert sol.status == 1 and sol.t[-1] < 1e4
@@ -358,6 +398,8 @@ def test_the_tableaux_are_scipys(tableau, name):
         ({"max_step": 0.0}, ValueError, "`max_step` must be > 0"),
         ({"max_step": -1.0}, ValueError, "`max_step` must be > 0"),
         ({"first_step": 5.0}, ValueError, "`first_step` must be > 0 and at most"),
+        ({"first_step": 1e-300}, ValueError, r"`first_step` = 1e-300 needs 1e\+300 steps"),
+        ({"max_step": 1e-20}, ValueError, r"`max_step` = 1e-20 needs 1e\+20 steps over t_span"),
         ({"t_eval": [0.5, 0.2]}, ValueError, "`t_eval` must be strictly increasing"),
         ({"t_eval": [0.5, 2.0]}, ValueError, "`t_eval` must lie within"),
         ({"t_eval": []}, ValueError, "`t_eval` must hold"),
@@ -377,12 +419,28 @@ def test_every_new_keyword_is_validated_by_name(kwargs, error, match):
         geomint.solve(BODY, M0, (0.0, 1.0), h, **kwargs)
 
 
+def test_a_max_step_that_cannot_advance_the_time_is_refused_before_the_run():
+    """At t = 1e6 the float64 spacing is 1.2e-10: a bound of 1e-12 on the step would never move t (the run
+    used to spin without end), so it is refused as a fixed h is."""
+    with pytest.raises(ValueError, match=r"`max_step` = 1e-12 cannot advance the time 1000001.0 in float64"):
+        geomint.solve(BODY, M0, (1e6, 1e6 + 1.0), max_step=1e-12, save_every=None)
+    with pytest.raises(ValueError, match=r"`max_step` = 1e-12 cannot advance"):
+        geomint.solve_ensemble(BODY, [M0, M0], (1e6, 1e6 + 1.0), max_step=1e-12)
+    assert geomint.solve(BODY, M0, (1e6, 1e6 + 1.0), max_step=1e-3, save_every=None).success
+
+
 def test_an_event_that_raises_or_is_not_finite_is_named():
     def bad(t, x):
         return float("nan")
 
     with pytest.raises(ValueError, match=r"`events\[0\]` \(bad\) returned nan"):
         geomint.solve(BODY, M0, (0.0, 1.0), events=bad)
+
+    def nothing(t, x):
+        return None
+
+    with pytest.raises(ValueError, match=r"`events\[0\]` \(nothing\) returned None at t = 0.0"):
+        geomint.solve(BODY, M0, (0.0, 1.0), events=nothing)
 
     def raising(t, x):
         raise ZeroDivisionError("no")

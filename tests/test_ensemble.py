@@ -173,6 +173,8 @@ def test_to_xarray_labels_trajectories_times_components_and_parameters():
         (dict(params=[[1, 2, np.nan]] * 2), ValueError, r"`params` must be finite; row 0"),
         (dict(eps=[0.1]), ValueError, r"`eps` must have shape \(n,\) = \(2,\)"),
         (dict(eps=[0.1, -1.0]), ValueError, r"`eps` must be >= 0"),
+        (dict(eps=-1.0), ValueError, r"`eps` must be >= 0"),
+        (dict(eps="0.1"), TypeError, r"`eps` must be a real number"),
         (dict(backend="spark"), ValueError, r"`backend` must be 'local' or 'dask'; got 'spark'"),
         (dict(chunk=0), ValueError, r"`chunk` must be an integer >= 1; got 0"),
         (dict(threads=True), ValueError, r"`threads` must be an integer >= 1; got True"),
@@ -190,6 +192,18 @@ def test_bad_input_is_refused_with_the_rule(kwargs, error, match):
     arguments.update(kwargs)
     with pytest.raises(error, match=match):
         geomint.solve_ensemble(**arguments)
+
+
+def test_one_eps_serves_every_start_and_numbers_may_be_0_d_arrays():
+    """``eps=0.2`` is ``eps=[0.2, 0.2]``, and a 0-d array is the number it holds (as numpy takes it), for solve's
+    tolerances too."""
+    one = geomint.solve_ensemble(BODY, STARTS[:2], (0.0, 1.0), 0.1, eps=0.2)
+    each = geomint.solve_ensemble(BODY, STARTS[:2], (0.0, 1.0), 0.1, eps=[0.2, 0.2])
+    np.testing.assert_array_equal(one.x, each.x)
+    assert one.eps.tolist() == [0.2, 0.2]
+    sol = geomint.solve(BODY, STARTS[0], (0.0, 1.0), rtol=np.array(1e-6), atol=np.array(1e-9))
+    same = geomint.solve(BODY, STARTS[0], (0.0, 1.0), rtol=1e-6, atol=1e-9)
+    np.testing.assert_array_equal(sol.x, same.x)
 
 
 def test_the_dask_backend_without_dask_says_which_extra_to_install(monkeypatch):

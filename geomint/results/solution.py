@@ -36,8 +36,10 @@ class Solution:
     Attributes
     ----------
     t : (m,) array
-        Saved times: every ``save_every``-th step, and always the last state
-        reached (``t_end`` on success, the last good state on failure).
+        Saved times: every ``save_every``-th step and ``t_end``, or with
+        ``t_eval`` its times only (as scipy's).  A run that ends before
+        ``t_end`` (a failed step, a terminal event, Ctrl-C) always keeps the
+        last state it reached: the last good state, the event's state.
     x : (m, n) array
         States at ``t`` (n = 3 in R^3; the system's ``dim`` in R^n).
     H, S : (m,) arrays
@@ -62,7 +64,11 @@ class Solution:
     failed_step : int or None
         Index ``k`` of the step ``t_{k-1} -> t_k`` that failed.
     n_steps, n_newton, nfev : int
-        Steps taken (accepted), Newton iterations, evaluations of the field (gradient triples).
+        Steps taken (accepted; up to a terminal event), Newton iterations,
+        evaluations of the field (gradient triples).  The work counts
+        (``n_newton``, ``nfev``, ``n_rejected``) include the steps the run
+        took past a terminal event before it was found: events are looked for
+        after each chunk of steps (``geomint.run.chunks``).
     method : Integrator
         The method used.
     n_rejected : int
@@ -134,12 +140,14 @@ class Solution:
 
     @property
     def t_final(self) -> float:
-        """Time of the last state reached."""
+        """Time of the last saved state: the last state reached, except with ``t_eval`` on a run that
+        reached ``t_end``, where it is the last time of ``t_eval`` (see ``t``)."""
         return float(self.t[-1])
 
     @property
     def x_final(self) -> np.ndarray:
-        """The last state reached (kept even when only every k-th state is saved)."""
+        """The last saved state (``t_final``): the last state reached, kept even when only every k-th state is
+        saved, except with ``t_eval`` on a run that reached ``t_end`` (see ``t``)."""
         return self.x[-1]
 
     @property

@@ -87,20 +87,22 @@ def check_span(t_span: Any) -> tuple[float, float]:  # refused by name unless a 
     return t0, t_end
 
 
-def check_step(h: float, t0: float, t_end: float) -> float:
-    h = _validate.real("h", h)
+def check_step(h: float, t0: float, t_end: float, name: str = "h") -> float:
+    """A step ``h`` (the argument ``name``: ``h``, ``first_step`` or ``max_step``): finite, > 0, at most 2**52
+    of them over the span, and large enough to advance the time at both ends of it in float64."""
+    h = _validate.real(name, h)
     if not (math.isfinite(h) and h > 0.0):
-        raise ValueError(f"`h` must be finite and > 0; got {h!r}.")
+        raise ValueError(f"`{name}` must be finite and > 0; got {h!r}.")
     steps = abs(t_end - t0) / h
     if not steps <= MAX_STEPS:
         raise ValueError(
-            f"`h` = {h!r} needs {steps:.3g} steps over t_span = ({t0!r}, {t_end!r}); at most 2**52 are "
-            "allowed. Use a larger `h` or a shorter span."
+            f"`{name}` = {h!r} needs {steps:.3g} steps over t_span = ({t0!r}, {t_end!r}); at most 2**52 are "
+            f"allowed. Use a larger `{name}` or a shorter span."
         )
     if t0 + h == t0 or t_end - h == t_end:
         raise ValueError(
-            f"`h` = {h!r} cannot advance the time {max(abs(t0), abs(t_end))!r} in float64; use a larger `h` "
-            "or shift t_span towards 0."
+            f"`{name}` = {h!r} cannot advance the time {max(abs(t0), abs(t_end))!r} in float64; use a larger "
+            f"`{name}` or shift t_span towards 0."
         )
     return h
 
@@ -113,11 +115,16 @@ def check_save_every(save_every: int | None, n_steps: int) -> int:
     return int(min(save_every, n_steps))
 
 
-def check_memory(rows: int) -> None:
-    """Refuse up front a run whose saved states would not fit in memory."""
+#: what to do about a run whose saved states do not fit: fixed steps on a grid, and runs that keep every step
+SAVE_FEWER = "use a larger `save_every` (or None)"
+KEEP_FEWER = "pass save_every=None (only t_end kept) or t_eval (only its times kept), or a shorter span"
+
+
+def check_memory(rows: int, advice: str = SAVE_FEWER) -> None:
+    """Refuse a run whose saved states would not fit in memory, saying what to do (``advice``)."""
     problem = _validate.memory_problem(rows * 6 * 8)
     if problem:
-        raise ValueError(f"saving {rows} states {problem}; use a larger `save_every` (or None).")
+        raise ValueError(f"saving {rows} states {problem}; {advice}.")
 
 
 def check_t_eval(t_eval: npt.ArrayLike, t0: float, t_end: float) -> npt.NDArray[np.float64]:

@@ -82,11 +82,13 @@ def check_control(
     max_step = math.inf if max_step is None else _validate.real("max_step", max_step)
     if not max_step > 0.0 or math.isnan(max_step):
         raise ValueError(f"`max_step` must be > 0; got {max_step!r}.")
+    if math.isfinite(max_step):  # a bound too small to advance t, or needing over 2**52 steps, would never end
+        check_step(max_step, t0, t_end, "max_step")
     if first_step is not None:
         first_step = _validate.real("first_step", first_step)
         if not (math.isfinite(first_step) and 0.0 < first_step <= span):
             raise ValueError(f"`first_step` must be > 0 and at most |t_end - t0| = {span!r}; got {first_step!r}.")
-        check_step(first_step, t0, t_end)
+        check_step(first_step, t0, t_end, "first_step")
     estimator, error_order = integrator.error_estimate()
     scale = _control.proportional_tolerance(estimator, integrator.order, rtol)
     return _control.Control(

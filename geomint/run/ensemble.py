@@ -260,8 +260,8 @@ def solve_ensemble(
         the start and the end), as in ``geomint.solve``.  Otherwise 1 or None.
     params : array_like, shape (n, p), optional
         Parameters of each trajectory (default: the system's, for all).
-    eps : array_like, shape (n,), optional
-        eps of each trajectory (default: the system's, for all).
+    eps : float or array_like, shape (n,), optional
+        eps of each trajectory, or one for all (default: the system's, for all).
     progress : callable, optional
         Called as ``progress(trajectories_done)`` after each chunk.
     backend : "local" or "dask"
@@ -487,9 +487,13 @@ def _per_trajectory_params(system, params, n):
 def _per_trajectory_eps(system, eps, n):
     if eps is None:
         return np.full(n, system.eps)
+    if np.ndim(eps) == 0:  # one eps for every start
+        return _per_trajectory_eps(system, [_validate.real("eps", eps)] * n, n)
     array = _validate.reals("eps", eps)
     if array.shape != (n,):
-        raise ValueError(f"`eps` must have shape (n,) = ({n},), one per start; got shape {array.shape}.")
+        raise ValueError(
+            f"`eps` must have shape (n,) = ({n},), one per start, or be one number; got shape {array.shape}."
+        )
     if np.any(array < 0.0):
         raise ValueError(f"`eps` must be >= 0; got {array[array < 0.0][0]!r}.")
     return array

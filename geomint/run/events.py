@@ -140,19 +140,24 @@ class Events:
         self.x_events = [[] for _ in self.functions]
         self._counts = [0] * len(self.functions)
         self._last = None
+        self._ended_at_zero: set[int] = set()  # events recorded at the last step's end, where g was exactly 0
 
     def _values(self, t, x):
         values = np.empty(len(self.functions))
         for k, g in enumerate(self.functions):
             try:
-                values[k] = g(t, x)
+                value = g(t, x)
             except Exception as exc:
                 raise UserFunctionError(
                     f"events[{k}] ({_name(g)})", np.asarray(x).tolist(), exc, f"(t = {float(t)!r})"
                 ) from exc
-            if not math.isfinite(values[k]):
+            try:
+                values[k] = value
+            except (TypeError, ValueError):
+                values[k] = math.nan  # not a number: refused below, by what it is
+            if not math.isfinite(values[k]) or isinstance(value, (bool, np.bool_)) or value is None:
                 raise ValueError(
-                    f"`events[{k}]` ({_name(g)}) returned {float(values[k])!r} at t = {float(t)!r}, "
+                    f"`events[{k}]` ({_name(g)}) returned {value!r} at t = {float(t)!r}, "
                     f"x = {np.asarray(x).tolist()}; it must return a finite real number."
                 )
         return values
@@ -186,14 +191,18 @@ class Events:
             up = (old <= 0) & (new >= 0)
             down = (old >= 0) & (new <= 0)
             hits = []
+            # a zero exactly at a step's end is the next step's start too: found on the first of the two only
+            counted, self._ended_at_zero = self._ended_at_zero, set()
             for k, direction in enumerate(self.directions):
                 wanted = (
                     (up[k] and direction > 0) or (down[k] and direction < 0) or ((up[k] or down[k]) and direction == 0)
                 )
-                if wanted and not (old[k] == 0 and new[k] == 0):
+                if wanted and not (old[k] == 0 and (new[k] == 0 or k in counted)):
                     hits.append(
                         (self._root(k, t[n], t[n + 1], old[k], new[k], interpolant(n), lambda s, n=n: landed(n, s)), k)
                     )
+                    if new[k] == 0:
+                        self._ended_at_zero.add(k)
             hits.sort(reverse=bool(t[n + 1] < t[n]))
             for t_event, k in hits:
                 state = landed(n, t_event)

@@ -17,7 +17,15 @@ from ..model.system import MetriplecticSystem
 from ..model.system_n import MetriplecticSystemN
 from ..results.dense import Hermite
 from ..results.solution import AccuracyWarning, Solution
-from .arguments import check_direction, check_memory, check_span, check_state, check_t_eval, with_args
+from .arguments import (
+    KEEP_FEWER,
+    check_direction,
+    check_memory,
+    check_span,
+    check_state,
+    check_t_eval,
+    with_args,
+)
 from .checkpoint import check_checkpoint, resume_checkpoint, run_id, write_checkpoint
 from .chunks import FIRST_CHUNK, interrupts, new_output, new_run_state, next_chunk, run_chunk, save_interrupted
 from .controller import RTOL, check_step_or_control, constant_grid, landing_control
@@ -466,14 +474,15 @@ def _to_stops(
     if terminated is not None:
         row, t_event, x_event = terminated
         counters[_layout.ROWS] = row + 1
+        counters[_layout.STEPS] = row + 1  # (events keep every step) the steps to the event's row and onto it
         _append(system, out, t_event, x_event)
         counters[_layout.STATUS] = Status.TERMINATED
         n = row + 2
     dense = Hermite(out.t[:n].copy(), out.x[:n].copy(), fields(system, out.x[:n])) if dense_output else None
     if t_eval is not None:
         keep = np.isin(out.t[:n], t_eval)
-        if not Status(int(counters[_layout.STATUS])).success:
-            keep[n - 1] = True  # the last state reached
+        if counters[_layout.STATUS] != _layout.OK:
+            keep[n - 1] = True  # a run ended before t_end (failed, terminated, interrupted): the last state reached
         # the six fields: t, x, H, S (unpacked, which pyright cannot count), counters and residual
         out = _loop.Output(*(a[:n][keep] for a in out[:4]), counters, out.residual)  # pyright: ignore[reportCallIssue]
         counters[_layout.ROWS] = int(np.count_nonzero(keep))
@@ -529,7 +538,7 @@ def _solution(system, integrator, out, raised, t_from, h, **extra):
 def _grown(out):
     """``out`` with twice the rows (the rows written so far copied; the same counters array)."""
     rows = len(out.t)
-    check_memory(2 * rows)
+    check_memory(2 * rows, KEEP_FEWER)
     bigger = new_output(2 * rows, out.x.shape[1])
     for old, new in zip(out[:4], bigger[:4]):
         new[:rows] = old
