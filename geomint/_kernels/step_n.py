@@ -102,6 +102,8 @@ from .vecn import (
     lu_solve,
     norm_inf,
     remove_along,
+    remove_scaled,
+    scaled_into,
 )
 
 #: an accepted step keeps H to its anchor within this many ulps of its terms
@@ -217,7 +219,8 @@ V_K1, V_K2, V_K3, V_K4 = 12, 13, 14, 15  # RK4 stages
 V_PIVOTS = 16  # the pivots of the factors (LAPACK's: integers in the same space)
 V_G0 = 17  # the dissipative part at x (damped step)
 V_ROWS = 18  # scratch (row sums)
-N_VECTORS = 19
+V_EH, V_ES = 19, 20  # the discrete gradients scaled by their largest component (``vecn.scaled_into``)
+N_VECTORS = 21
 
 
 @njit(inline="always")  # called from Python (the run's workspace) and from the kernels
@@ -398,22 +401,27 @@ def discrete_field_n(kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, y, gain
         mid[i] = 0.5 * (x[i] + y[i])
     F[:] = 0.0
     norm_p, norm_m = 0.0, 0.0
+    # the projections along dgS and dgH (``vecn.remove_along``), each direction scaled once for all of them
+    eh = vector(work, V_EH, n)
+    hh = scaled_into(eh, dgh)
     if hamiltonian:  # Pi_S P(xbar) Pi_S dgH
-        remove_along(copy_into(a, dgh), dgs)
+        es = vector(work, V_ES, n)
+        ss = scaled_into(es, dgs)
+        remove_scaled(copy_into(a, dgh), es, ss)
         norm_p = apply_P(model, mid, a, F, True)
-        remove_along(F, dgs)
+        remove_scaled(F, es, ss)
     if eps != 0.0:
         if model.metric == PAPER_METRIC:  # (dgH . dgS) dgH - |dgH|^2 dgS = -|dgH|^2 Pi_H dgS
             c, d = dot(dgh, dgs), dot(dgh, dgh)
             for i in range(n):
                 F[i] += eps * (c * dgh[i] - d * dgs[i])
         else:  # Pi_H M(xbar) Pi_H dgS
-            remove_along(copy_into(a, dgs), dgh)
+            remove_scaled(copy_into(a, dgs), eh, hh)
             norm_m = apply_M(model, mid, a, b, True)
-            remove_along(b, dgh)
+            remove_scaled(b, eh, hh)
             for i in range(n):
                 F[i] += eps * b[i]
-    remove_along(F, dgh)  # F . dgH = 0 holds identically; this removes the rounding of the products along dgH
+    remove_scaled(F, eh, hh)  # F . dgH = 0 holds identically; this removes the rounding of the products along dgH
     return H_y, S_y, noise, norm_p, norm_m
 
 

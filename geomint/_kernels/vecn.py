@@ -77,6 +77,35 @@ def axpy_into(out, a, u, v):
 
 
 @inner
+def scaled_into(out, direction):
+    """``out = d / |d|_inf``; returns ``|out|^2``, 0 where ``d = 0`` or is not finite: a direction prepared once
+    for several ``remove_scaled``, each then the same arithmetic as ``remove_along``'s, bit for bit."""
+    size = norm_inf(direction)
+    if size == 0.0 or not np.isfinite(size):
+        return 0.0
+    dd = 0.0
+    for i in range(direction.shape[0]):
+        e = direction[i] / size
+        out[i] = e
+        dd += e * e
+    return dd
+
+
+@inner
+def remove_scaled(u, e, dd):
+    """``remove_along(u, d)`` with ``(e, dd)`` from ``scaled_into(e, d)`` (nothing where ``dd`` is 0)."""
+    if dd == 0.0:
+        return u
+    ud = 0.0
+    for i in range(u.shape[0]):
+        ud += u[i] * e[i]
+    c = ud / dd
+    for i in range(u.shape[0]):
+        u[i] -= c * e[i]
+    return u
+
+
+@inner
 def remove_along(u, direction):
     """``u - (u . d / d . d) d`` in place: ``u`` without its component along ``d`` (nothing where ``d = 0``).
 
