@@ -86,9 +86,11 @@ class Solution:
         method that is not expected to meet ``rtol``.  Empty when none.
     step_ratio : float or None
         Fixed steps: ``|h|`` times the field's local rate (the 2-norm of its
-        Jacobian, the larger at the first and the last state; the conservative
-        part only for damped methods).  Above ``geomint.run.solve.STEP_RATIO_LIMIT``
-        the run is flagged.  None for adaptive steps.
+        Jacobian up to n = 64, above it the growth of power iterates, a lower
+        bound of it: ``geomint.run.solve.local_rate``; the larger at the first
+        and the last state; the conservative part only for damped methods).
+        Above ``geomint.run.solve.STEP_RATIO_LIMIT`` the run is flagged.  None
+        for adaptive steps.
     S_direction : float
         The direction of S of the system the run came from: -1.0 where S never
         rises (the Fish form, R^3 and ``MetriplecticSystemN``), +1.0 where it
