@@ -7,6 +7,7 @@ OverflowError, and every error names the argument.
 
 from __future__ import annotations
 
+import collections
 import functools
 import numbers
 import os
@@ -51,6 +52,12 @@ def reals(name: str, values: object) -> npt.NDArray[np.float64]:
     if not np.all(np.isfinite(array)):
         raise ValueError(f"`{name}` must be finite; got {array.tolist()!r}.")
     return array
+
+
+def repeated(names: Iterable[str]) -> list[tuple[str, int]]:
+    """The names given more than once, sorted, each with its count (in linear time: a system's variables can
+    number in the hundreds of thousands)."""
+    return sorted((name, count) for name, count in collections.Counter(names).items() if count > 1)
 
 
 def memory_problem(nbytes: int) -> str | None:

@@ -372,3 +372,12 @@ def test_tangent_jacobian_factorises_and_S_on_the_level_set_decides_stability(na
             if eps > 0:
                 lam = np.linalg.eigvals(jacobian)
                 assert analysis.verdict(lam, np.linalg.norm(jacobian)) == expected[factors.constrained_type]
+
+
+def test_explain_refuses_a_state_that_is_not_a_zero_of_its_field():
+    """The propositions explain equilibria: a moving state is refused with |field| there, not called one."""
+    body = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5)
+    with pytest.raises(ValueError, match=r"`x` must be a zero of `xi` .* \|xi\| = 0\.\d+"):
+        analysis.explain(body, [0.5, 0.5, 0.5])
+    assert analysis.explain(body, [0.0, 0.0, 1.0])[0]
+    assert analysis.conditions(body, np.zeros((0, 3))).regular.shape == (0,)

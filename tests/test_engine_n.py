@@ -317,3 +317,25 @@ def test_an_interrupted_run_resumes_from_its_checkpoint_bit_for_bit(tmp_path, si
     resumed = geomint.solve(system, x0, span, h=h, save_every=5, resume=path)
     np.testing.assert_array_equal(resumed.x, whole.x)
     np.testing.assert_array_equal(resumed.S, whole.S)
+
+
+@pytest.mark.parametrize("system", [systems.gas_containers(), systems.damped_pendula(3)], ids=["gas", "pendula"])
+def test_the_testing_assertions_serve_R_n_systems_and_can_fail(system):
+    """``geomint.testing``'s assertions in R^n: a Gonzalez step passes them from random states (S in its own
+    direction: the pendula's entropy rises), an RK4 step's energy error and a step run backwards in time are
+    caught."""
+    import geomint.testing as gt
+
+    rng = np.random.default_rng(5)
+    start = np.array([1.2, 0.1, 2.0, 2.0]) if system.dim == 4 else np.array([0.3, -1.0, 2.0, 0.5, 0.2, -0.4, 0.0])
+    for _ in range(5):
+        x = start + 0.05 * rng.standard_normal(system.dim)
+        x_new = gt.assert_step_invariants(system, geomint.Gonzalez(), x, 0.2)
+        assert not np.array_equal(x_new, x)
+    x = start
+    with pytest.raises(AssertionError, match=r"\|dH\| = "):
+        gt.assert_conserves_energy(system, x, gt.one_step(system, "rk4", x, 0.5))
+    moved = "fell" if system.direction > 0 else "rose"
+    with pytest.raises(AssertionError, match=f"S {moved} by"):
+        back = geomint.solve(system, x, (0.0, -0.5), 0.5, method="rk4").x[-1]  # a backward step undoes dissipation
+        gt.assert_dissipates(system, x, back)

@@ -214,3 +214,25 @@ def test_grammar_errors_name_the_field_and_the_piece():
         expressions.parse("S", "__import__('os').system('ls')")
     with pytest.raises(ValueError, match=r"`H`: unknown name \(declare parameters in `params`\): 'b'"):
         expressions.parse("H", "a*x + b", ["a"])
+
+
+def test_new_params_reach_the_recorded_formulas_of_saved_results(tmp_path):
+    """``with_effects(params=...)`` changes what the system computes; the formulas' record (written into saved
+    results beside the parameter vector) takes the new values under the same names, in R^3 and in R^n."""
+    lorenz = geomint.MetriplecticSystem.from_expressions(**LORENZ_NEVIR)
+    changed = lorenz.with_effects(params=[1.0, 2.0])
+    assert changed.expressions["params"] == {"sigma": 1.0, "r": 2.0} and changed.params.tolist() == [1.0, 2.0]
+    assert lorenz.expressions["params"] == {"sigma": 10.0, "r": 28.0}
+    path = geomint.solve(changed, [1.0, 0.5, 0.2], (0.0, 0.1), 0.05).save(tmp_path / "l", changed)
+    saved = geomint.results.io.read_metadata(path)
+    recorded = saved["system"]
+    assert recorded["params"] == [1.0, 2.0] and recorded["expressions"]["params"] == {"sigma": 1.0, "r": 2.0}
+    oscillator = geomint.GenericSystem.from_expressions(
+        variables=("q", "p", "s"),
+        E="p**2/2 + k*q**2/2 + s",
+        S="s",
+        L=[["0", "1", "0"], ["-1", "0", "0"], ["0", "0", "0"]],
+        M=[["0", "0", "0"], ["0", "g", "-g*p"], ["0", "-g*p", "g*p**2"]],
+        params={"k": 1.0, "g": 0.5},
+    )
+    assert oscillator.with_effects(params=[2.0, 0.25]).expressions["params"] == {"k": 2.0, "g": 0.25}

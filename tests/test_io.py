@@ -94,6 +94,12 @@ def test_a_file_that_is_not_a_solution_is_refused_by_name(tmp_path):
     np.savez(path, a=np.zeros(3))
     with pytest.raises(ValueError, match=r"is not a geomint solution file \(no metadata\)"):
         geomint.load(path)
+    garbage = tmp_path / "garbage.npz"
+    garbage.write_bytes(b"not an archive")  # numpy would read it as a pickle and advise loading it unsafely
+    with pytest.raises(ValueError, match=r"garbage.npz' is not a geomint solution file \(not an .npz archive\)"):
+        geomint.load(garbage)
+    with pytest.raises(ValueError, match=r"not an .npz archive"):
+        io.read_metadata(garbage)
 
 
 def test_to_xarray_has_named_dimensions_and_the_metadata():

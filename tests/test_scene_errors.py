@@ -315,3 +315,14 @@ def test_formula_errors_name_the_key_in_the_scene():
         Scene.from_dict(_put(("system", "S"), "x**2*y**2/2 - sigma*z")).resolved()
     with pytest.raises(SceneError, match=r"<dict>: give exactly one of `system.J` \(3 formulas, axial vector\)"):
         Scene.from_dict(_put(("system", "J"), None))
+
+
+def test_the_scene_entry_points_name_an_argument_of_the_wrong_type():
+    with pytest.raises(
+        TypeError, match=r"`scene` must be a geomint.Scene; got 'rigid_body_distinct' \(str\)\. Read one"
+    ):
+        run_scene("rigid_body_distinct")  # pyright: ignore[reportArgumentType]
+    with pytest.raises(TypeError, match=r"`scene` must be a scene file's path or a bundled scene's name"):
+        load(3)  # pyright: ignore[reportArgumentType]
+    with pytest.raises(TypeError, match=r"`path` must be a scene file's path; got None"):
+        Scene.from_toml(None)  # pyright: ignore[reportArgumentType]

@@ -285,3 +285,22 @@ def test_bad_params_and_catalogue_arguments():
         geomint.systems.degenerate_example(3)
     with pytest.raises(TypeError, match=r"`hamiltonian` must be True or False"):
         geomint.systems.degenerate_example(1).with_effects(hamiltonian="no")
+
+
+@numba.njit
+def _H_beyond_five(x, p):
+    return np.log(x[0] - 5.0) + 0.5 * (x[1] ** 2 + x[2] ** 2)
+
+
+@numba.njit
+def _grad_H_wrong(x, p):
+    return (123.0, x[1], x[2])
+
+
+def test_a_system_undefined_at_every_sample_point_is_not_accepted_unchecked():
+    """H = log(x - 5) is not finite anywhere in [-1, 1]^3: the checks could check nothing (here a wrong
+    gradient), and say so instead of passing; check=False builds it."""
+    functions = dict(H=_H_beyond_five, grad_H=_grad_H_wrong, S=_S, grad_S=_grad_S, J=_J)
+    with pytest.raises(ValueError, match=r"not finite at any of their 6 sample points .* pass check=False"):
+        geomint.MetriplecticSystem(**functions)
+    assert geomint.MetriplecticSystem(**functions, check=False).name

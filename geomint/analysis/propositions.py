@@ -108,7 +108,7 @@ def conditions(
     gh, gs, j = (np.atleast_2d(f(X)) for f in (system.grad_H, system.grad_S, system.J))
     norms = [np.linalg.norm(v, axis=1) for v in (gh, gs, j)]
     if atol is None:
-        atol = rtol * max(float(n.max()) for n in norms)
+        atol = rtol * max((float(n.max()) for n in norms if n.size), default=0.0)  # (no points: no conditions)
     small_H, small_S, small_J = (n <= atol for n in norms)
     nh, ns, nj = norms
     xi_P = np.linalg.norm(np.cross(gh, j), axis=1)
@@ -210,6 +210,13 @@ def explain(system: MetriplecticSystem, x: npt.ArrayLike, field: str = "xi") -> 
     field = check_field(field)
     x = cast("npt.NDArray[np.float64]", as_points(x)[0])
     c = conditions(system, x[None], atol=1e-7 * (1.0 + float(np.linalg.norm(x))), rtol=1e-7)
+    zero = {"xi": c.xi_zero, "xi_P": c.xi_P_zero, "xi_g": c.xi_g_zero}[field]
+    if not bool(np.all(zero)):
+        size = float(np.linalg.norm(getattr(system, field)(x)))
+        raise ValueError(
+            f"`x` must be a zero of `{field}` (the propositions explain equilibria); at x = {x.tolist()} "
+            f"|{field}| = {size:.3g}. Find the zeros with geomint.analysis.critical_point or critical_points."
+        )
     held = {"critical point of H": c.critical_H[0], "dS = 0": c.critical_S[0], "grad S || grad H": c.parallel[0]}
     reasons = tuple(key for key, on in held.items() if on)
     regular = bool(c.regular[0])

@@ -55,7 +55,11 @@ def _check_samples(system):
     finite = np.isfinite(H) & np.isfinite(S) & np.all(np.isfinite(np.hstack([grad_H, grad_S, J])), axis=1)
     points = SAMPLES[finite]
     if points.size == 0:
-        return
+        raise ValueError(
+            f"the structure checks found the functions not finite at any of their {len(SAMPLES)} sample points in "
+            f"[-1, 1]^3 (e.g. x = {SAMPLES[0].tolist()}), so nothing could be checked; pass check=False to build "
+            "the system unchecked (geomint.testing's assertions check it where it is defined)."
+        )
     step = 1e-6
     for label, values, grads in (("grad_H", H, grad_H), ("grad_S", S, grad_S)):
         fd = np.stack(

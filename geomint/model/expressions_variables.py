@@ -18,6 +18,8 @@ import re
 from dataclasses import dataclass
 from typing import Any
 
+from .. import _validate
+
 #: a size beyond this is refused (the kernels hold dense (n, n) matrices)
 MAX_SIZE = 100_000
 #: the functions of the grammar (``expressions.FUNCTIONS``, named here so that a cached system imports no sympy)
@@ -114,10 +116,10 @@ class Coordinates:
             family = Family(name, lo, hi, len(self.names))
             self.families[name] = family
             self.names.extend(family.label(k) for k in range(lo, hi + 1))
-        repeated = sorted({v for v in self.names if self.names.count(v) > 1})
+        repeated = _validate.repeated(self.names)
         if repeated:
             raise ValueError(
-                f"`variables`: the coordinate name {repeated[0]!r} is given twice (a family q[..] names its members "
+                f"`variables`: the coordinate name {repeated[0][0]!r} is given twice (a family q[..] names its members "
                 "q0, q1, ...: rename the single variable)."
             )
         self.n = len(self.names)

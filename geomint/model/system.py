@@ -264,6 +264,7 @@ class MetriplecticSystem:
                 )
             other._params = values
             other.__dict__.pop("_models", None)
+            record_params(other, values)
             check_shapes(other.functions, values)
             with np.errstate(all="ignore"):
                 check_structure(other)
@@ -486,6 +487,14 @@ def _array(v):
 def _is_three(dim):
     """``dim`` is the integer 3 (a bool or float is not: the R^n class then names the argument)."""
     return isinstance(dim, numbers.Integral) and not isinstance(dim, (bool, np.bool_)) and dim == 3
+
+
+def record_params(system: Any, values: npt.NDArray[np.float64]) -> None:
+    """A system made ``from_expressions`` records its parameters by name (``system.expressions``, written into
+    saved results): given new values, the record takes them, under the same names in the same order."""
+    recorded = system.__dict__.get("expressions")
+    if recorded and isinstance(recorded.get("params"), dict) and len(recorded["params"]) == values.size:
+        system.expressions = {**recorded, "params": dict(zip(recorded["params"], values.tolist()))}
 
 
 def _check_eps(eps):

@@ -42,7 +42,7 @@ from .functions import (
     no_metric,
     scalar_function,
 )
-from .system import MetriplecticSystem, _check_eps
+from .system import MetriplecticSystem, _check_eps, record_params
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -296,6 +296,7 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
                 )
             other._params = values
             other.__dict__.pop("_models", None)
+            record_params(other, values)
             other._check(self._checked)
         if hamiltonian is not None:
             if not isinstance(hamiltonian, (bool, np.bool_)):
@@ -702,9 +703,9 @@ def check_variables(variables: Any, n: int) -> tuple[str, ...]:
         raise ValueError(f"{rule}; {bad[0]!r} is not an identifier.")
     if len(names) != n:
         raise ValueError(f"{rule}; got {len(names)} names.")
-    repeated = sorted({v for v in names if names.count(v) > 1})
+    repeated = _validate.repeated(names)
     if repeated:
-        raise ValueError(f"{rule}; {repeated[0]!r} is given {names.count(repeated[0])} times.")
+        raise ValueError(f"{rule}; {repeated[0][0]!r} is given {repeated[0][1]} times.")
     return names
 
 

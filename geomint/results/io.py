@@ -106,9 +106,21 @@ def save(solution: Solution, path: str | os.PathLike[str], system: MetriplecticS
     return path
 
 
+def _opened(path: str | os.PathLike[str]) -> Any:  # numpy's NpzFile
+    """``np.load(path)`` of a file ``save`` wrote, an npz (zip) archive; any other file is refused by what it is
+    not (numpy reads a file that is not an archive as a pickle, and its refusal advises loading it unsafely)."""
+    with open(path, "rb") as file:
+        if file.read(4) != b"PK\x03\x04":
+            raise ValueError(
+                f"`path` {str(path)!r} is not a geomint solution file (not an .npz archive); write one with "
+                "Solution.save."
+            )
+    return np.load(path, allow_pickle=False)
+
+
 def read_metadata(path: str | os.PathLike[str]) -> dict[str, Any]:
     """The metadata dict of a file written by ``save`` (``ValueError`` naming the path if it is not one)."""
-    with np.load(path, allow_pickle=False) as data:
+    with _opened(path) as data:
         return _metadata(path, data)
 
 
@@ -119,7 +131,7 @@ def read(path: str | os.PathLike[str]) -> dict[str, Any]:
     A method that cannot be rebuilt (saved by a newer geomint, or not an
     integrator, e.g. a scipy label) comes back as its data form.
     """
-    with np.load(path, allow_pickle=False) as data:
+    with _opened(path) as data:
         meta = _metadata(path, data)
         arrays = {key: data[key] for key in _ARRAYS}
     try:

@@ -213,12 +213,12 @@ class _FormulaChecker:
                 self.fail(key, f"the family {text!r} has {hi - lo + 1} members; at most {MAX_SIZE}.")
             declared.families[name] = (lo, hi)
             declared.names.extend(f"{name}{k}" if k >= 0 else f"{name}m{-k}" for k in range(lo, hi + 1))
-        repeated = sorted({v for v in declared.names if declared.names.count(v) > 1})
+        repeated = _validate.repeated(declared.names)
         if repeated:
             self.fail(
                 "system.variables",
-                f"the coordinate name {repeated[0]!r} is given twice (a family q[..] names its members q0, q1, ...): "
-                "rename one.",
+                f"the coordinate name {repeated[0][0]!r} is given twice (a family q[..] names its members q0, q1, "
+                "...): rename one.",
             )
         if declared.n < 2:
             self.fail("system.variables", f"must declare at least 2 coordinates; got {declared.names}.")

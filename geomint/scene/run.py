@@ -211,6 +211,11 @@ def run_scene(
     and the result equals the uninterrupted run's bit for bit.  A folder
     written for another scene raises ``CheckpointError``.
     """
+    if not isinstance(scene, Scene):
+        raise TypeError(
+            f"`scene` must be a geomint.Scene; got {scene!r} ({type(scene).__name__}). Read one with "
+            "geomint.scene.load_scene(path or bundled name) or build it with Scene(...)."
+        )
     scene = scene.resolved()
     system, method, states = scene.built()
     checkpoint = _checkpoint_folder(scene, checkpoint, resume)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
@@ -43,8 +44,6 @@ from .checks import (
 from .toml import plain, read_toml, scene_file
 
 if TYPE_CHECKING:
-    import os
-
     from ..integrators import Integrator
 
 
@@ -381,6 +380,8 @@ class Scene:
     @classmethod
     def from_toml(cls, path: str | os.PathLike[str]) -> Scene:
         """Read a scene file; a malformed or invalid file raises ``SceneError`` naming it."""
+        if not isinstance(path, (str, os.PathLike)):
+            raise TypeError(f"`path` must be a scene file's path; got {path!r} ({type(path).__name__}).")
         path = Path(path)
         return cls.from_dict(read_toml(path), source=str(path), name=path.stem)
 

@@ -5,6 +5,7 @@ one (``geomint/scenes/*.toml`` in R^3 and ``geomint/scenes/rn/*.toml`` in R^n, p
 from __future__ import annotations
 
 import json
+import os
 import tomllib
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -94,6 +95,12 @@ def bundled_scenes(rn: bool = False) -> dict[str, Traversable]:
 
 def scene_file(scene: str) -> Path | Traversable:
     """The file of ``scene``: a file path, or the name of a bundled scene (with or without ``.toml``)."""
+    if not isinstance(scene, (str, os.PathLike)):
+        raise TypeError(
+            f"`scene` must be a scene file's path or a bundled scene's name (a str); got {scene!r} "
+            f"({type(scene).__name__})."
+        )
+    scene = os.fspath(scene)
     path = Path(scene)
     if path.is_file():
         return path
