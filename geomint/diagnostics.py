@@ -163,8 +163,7 @@ def observed_order(step_sizes: npt.ArrayLike, errors: npt.ArrayLike, floor: floa
     >>> round(observed_order(h, 3 * h**4), 6)
     4.0
     """
-    h = np.asarray(step_sizes, dtype=float)
-    e = np.asarray(errors, dtype=float)
+    h, e = _paired("step_sizes", step_sizes, "errors", errors)
     order = np.argsort(h)[::-1]
     h, e = h[order], e[order]
     keep = [0]
@@ -188,6 +187,8 @@ def median_time(run: Callable[[], _T], repeats: int, budget: float = 2.0) -> tup
     Returns ``(median seconds, last result)``; call it after a warm-up call so
     compilation is excluded.
     """
+    if isinstance(repeats, (bool, np.bool_)) or not isinstance(repeats, (int, np.integer)) or repeats < 1:
+        raise ValueError(f"`repeats` must be an integer >= 1; got {repeats!r}.")
     times, result = [], None
     for _ in range(repeats):
         start = time.perf_counter()
@@ -206,22 +207,40 @@ def error_along(sol: Solution, reference: Callable[[npt.NDArray[np.float64]], An
 
 
 def cost_to_reach(cost: npt.ArrayLike, error: npt.ArrayLike, target: float) -> float:
-    """Cost at which ``error`` first falls to ``target``, interpolated in log-log; NaN if never.
+    """Cost at which ``error`` first falls to ``target``, interpolated in log-log; NaN if never (or where a cost
+    it needs is NaN, unknown).
 
     >>> round(cost_to_reach([1, 10, 100], [1e-2, 1e-4, 1e-6], 1e-5), 1)
     31.6
     """
-    cost, error = np.asarray(cost, float), np.asarray(error, float)
+    cost, error = _paired("cost", cost, "error", error, unknown_x=True)  # a cost not reported: NaN, unknown
     order = np.argsort(cost)
     cost, error = cost[order], error[order]
     below = np.flatnonzero(error <= target)
     if below.size == 0:
         return np.nan
     i = below[0]
-    if i == 0 or error[i - 1] == error[i]:
+    if i == 0 or error[i - 1] == error[i] or error[i] == 0.0:  # (no log-log line through an exact result)
         return float(cost[i])
     w = (np.log(target) - np.log(error[i - 1])) / (np.log(error[i]) - np.log(error[i - 1]))
     return float(np.exp(np.log(cost[i - 1]) + w * (np.log(cost[i]) - np.log(cost[i - 1]))))
+
+
+def _paired(
+    x_name: str, x: npt.ArrayLike, y_name: str, y: npt.ArrayLike, unknown_x: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
+    """Two 1-D float arrays of one length >= 1 for a log-log fit: ``x`` finite and > 0 (or NaN, unknown, where
+    ``unknown_x``), ``y`` >= 0 (inf allowed, a run that blew up), no NaN; else a ValueError naming them."""
+    a, b = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    if a.ndim != 1 or a.size == 0 or b.shape != a.shape:
+        raise ValueError(
+            f"`{x_name}` and `{y_name}` must be 1-D of one length >= 1; got shapes {a.shape} and {b.shape}."
+        )
+    if not np.all((np.isfinite(a) & (a > 0.0)) | (unknown_x & np.isnan(a))):
+        raise ValueError(f"`{x_name}` must be finite and > 0{' (or NaN)' if unknown_x else ''}; got {a.tolist()}.")
+    if np.any(np.isnan(b)) or np.any(b < 0.0):
+        raise ValueError(f"`{y_name}` must be >= 0 and not NaN; got {b.tolist()}.")
+    return a, b
 
 
 #: runs about runs that moved to ``geomint.studies``, reachable here under their earlier names

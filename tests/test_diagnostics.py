@@ -125,3 +125,20 @@ def test_work_precision_over_tolerances_measures_the_error_along_the_trajectory(
     assert fixed.error[0] < 1e-11
     with pytest.raises(ValueError, match="give exactly one of `step_counts`"):
         studies.work_precision(BODY, X0, 2.0, "rk4", [10], dense(2.0), tolerances=[1e-6])
+
+
+def test_the_work_precision_helpers_refuse_what_they_cannot_fit_and_take_an_exact_result():
+    """An exact result (error 0) is reached at its own cost, not at the cost before it (log 0 made the weight
+    -0); NaN errors, mismatched lengths and no repeats are refused by name."""
+    assert diagnostics.cost_to_reach([1, 10, 100], [1e-2, 0.0, 0.0], 1e-5) == 10.0
+    assert round(diagnostics.cost_to_reach([1, 10, 100], [1e-2, 1e-4, 1e-6], 1e-5), 1) == 31.6
+    with pytest.raises(ValueError, match=r"`errors` must be >= 0 and not NaN; got \[0.01, nan"):
+        diagnostics.observed_order([0.1, 0.05, 0.025, 0.0125], [1e-2, np.nan, 1e-4, 1e-5])
+    with pytest.raises(
+        ValueError, match=r"`step_sizes` and `errors` must be 1-D of one length >= 1; got shapes \(3,\) and \(2,\)"
+    ):
+        diagnostics.observed_order([0.1, 0.05, 0.025], [1e-2, 1e-3])
+    with pytest.raises(ValueError, match=r"`cost` must be finite and > 0 \(or NaN\)"):
+        diagnostics.cost_to_reach([0, 10], [1e-2, 1e-4], 1e-3)
+    with pytest.raises(ValueError, match=r"`repeats` must be an integer >= 1; got 0"):
+        diagnostics.median_time(lambda: None, 0)

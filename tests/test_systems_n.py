@@ -905,3 +905,12 @@ def test_generic_actions_are_checked_by_columns_or_by_probes(N, overrides, match
 def test_damped_pendula_form_is_checked():
     with pytest.raises(ValueError, match=r"`form` must be one of \('action', 'matrix'\); got 'sparse'"):
         damped_pendula(2, form="sparse")
+
+
+def test_no_states_give_empty_arrays_of_the_values_shape_as_in_R3():
+    gas, body = geomint.systems.gas_containers(), geomint.systems.relaxing_rigid_body()
+    assert body.grad_H(np.zeros((0, 3))).shape == (0, 3) and body.H(np.zeros((0, 3))).shape == (0,)
+    none = np.zeros((0, 4))
+    assert gas.H(none).shape == (0,) and gas.S(none).shape == (0,) and gas.dS_dt(none).shape == (0,)
+    assert gas.grad_H(none).shape == (0, 4) and gas.xi(none).shape == (0, 4) and gas.P(none).shape == (0, 4, 4)
+    assert gas.grad_H(np.ones((2, 4))).shape == (2, 4) and np.shape(gas.H(np.ones(4))) == ()

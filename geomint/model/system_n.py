@@ -363,11 +363,14 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         M = None if self.metric == PAPER_METRIC else self._call("M", x)
         return (*values, self._call("P", x), M)
 
-    def _over(self, x, one) -> Any:
-        """``one(state)`` at one state ``(n,)``, stacked over many ``(m, n)``."""
+    def _over(self, x, one, rank=1) -> Any:
+        """``one(state)`` at one state ``(n,)``, stacked over many ``(m, n)``; ``rank``: of one value (0 a number,
+        1 a vector, 2 a matrix), which gives no states its shape ``(0, n, ...)``, as in R^3."""
         X, single = self._states(x)
         values = [one(row) for row in X]
-        return values[0] if single else np.array(values)
+        if single:
+            return values[0]
+        return np.array(values) if values else np.empty((0,) + (self.dim,) * rank)
 
     def raising_function(self, x: npt.ArrayLike) -> tuple[str, Exception] | None:
         """``(name, exception)`` of the first user function that raises at ``x``, or None if none does."""
@@ -387,11 +390,11 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
 
     def H(self, x: npt.ArrayLike) -> Any:  # a float at one state (n,), an array at many (m, n)
         """The energy at ``x``."""
-        return self._over(x, lambda row: self._call("H", row))
+        return self._over(x, lambda row: self._call("H", row), 0)
 
     def S(self, x: npt.ArrayLike) -> Any:  # a float at one state (n,), an array at many (m, n)
         """The Casimir (Fish form) or entropy (GENERIC) at ``x``."""
-        return self._over(x, lambda row: self._call("S", row))
+        return self._over(x, lambda row: self._call("S", row), 0)
 
     def H_and_S(self, x: npt.ArrayLike) -> tuple[Any, Any]:
         """``(H(x), S(x))``: floats at one state, arrays at many."""
@@ -406,17 +409,17 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
     def P(self, x: npt.ArrayLike) -> Vector:
         """The Poisson tensor, shape (n, n) at one state, (m, n, n) at many (formed column by column where it is
         given as an action)."""
-        return self._over(x, lambda row: self._call("P", row))
+        return self._over(x, lambda row: self._call("P", row), 2)
 
     def g(self, x: npt.ArrayLike) -> Vector:
         """The paper's metric ``grad H grad H^T - |grad H|^2 I``, shape (n, n) or (m, n, n)."""
-        return self._over(x, lambda row: _paper_metric(self._call("grad_H", row)))
+        return self._over(x, lambda row: _paper_metric(self._call("grad_H", row)), 2)
 
     def D(self, x: npt.ArrayLike) -> Vector:
         """The metric the field uses: the paper's g, or the user's G (GENERIC: M); (n, n) or (m, n, n)."""
         if self.metric == PAPER_METRIC:
             return self.g(x)
-        return self._over(x, lambda row: self._call("M", row))
+        return self._over(x, lambda row: self._call("M", row), 2)
 
     def _dissipative(self, row):
         """``D grad S`` at one state (with ``grad S``), D applied without forming g where it is the paper's."""
@@ -446,13 +449,13 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
 
     def dH_dt(self, x: npt.ArrayLike) -> Any:
         """``grad H . xi`` as computed: 0 up to round-off (the structure's residual)."""
-        return self._over(x, lambda row: float(self._call("grad_H", row) @ self._xi_row(row)))
+        return self._over(x, lambda row: float(self._call("grad_H", row) @ self._xi_row(row)), 0)
 
     def dS_dt(self, x: npt.ArrayLike) -> Any:
         """The rate of S along the flow, ``eps grad S . D grad S`` (``P grad S = 0`` drops the Hamiltonian term):
         for the paper's metric ``-eps |grad H|^2 |Pi_H grad S|^2``, a sum of squares (<= 0 in floating point
         too); <= 0 in the Fish form, >= 0 in GENERIC."""
-        return self._over(x, self._dS_dt_row)
+        return self._over(x, self._dS_dt_row, 0)
 
     def _dS_dt_row(self, row):
         if self.metric != PAPER_METRIC:
