@@ -54,6 +54,14 @@ def reals(name: str, values: object) -> npt.NDArray[np.float64]:
     return array
 
 
+def flag(name: str, value: object) -> bool:
+    """``value`` as a bool where it is True or False (numpy's too), else a TypeError naming ``name`` ("no" or 0 is
+    not taken for a truth value)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"`{name}` must be True or False; got {value!r}.")
+    return bool(value)
+
+
 def repeated(names: Iterable[str]) -> list[tuple[str, int]]:
     """The names given more than once, sorted, each with its count (in linear time: a system's variables can
     number in the hundreds of thousands)."""

@@ -15,12 +15,14 @@ Requires ``hypothesis`` (``pip install geomint[test]``).
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from hypothesis import assume, reject
 from hypothesis import strategies as st
 
+from . import _validate
 from . import systems as _catalogue
 from .diagnostics import observed_order  # noqa: F401 (re-exported for tests)
 from .integrators import INTEGRATORS
@@ -131,7 +133,10 @@ def one_step(
     rejected instead (``hypothesis.reject``), for domains that include steps
     far beyond the problem's time scale, which an implicit method may refuse.
     """
-    sol = solve(system, x, (0.0, h), h, method=method)
+    h = _validate.real("h", h)
+    if not (math.isfinite(h) and h != 0.0):
+        raise ValueError(f"`h` must be finite and non-zero (negative: a step back); got {h!r}.")
+    sol = solve(system, x, (0.0, h), abs(h), method=method)
     if allow_failure and not sol.success:  # a reported failure is allowed; a silent NaN is not
         assert sol.status in (-1, -2, -3) and "Step 1 " in sol.message and np.all(sol.x == x), sol.message
         reject()

@@ -333,6 +333,8 @@ def test_the_testing_assertions_serve_R_n_systems_and_can_fail(system):
         x_new = gt.assert_step_invariants(system, geomint.Gonzalez(), x, 0.2)
         assert not np.array_equal(x_new, x)
     x = start
+    with pytest.raises(ValueError, match=r"`h` must be finite and non-zero \(negative: a step back\); got 0.0"):
+        gt.one_step(system, "gonzalez", x, 0.0)
     with pytest.raises(AssertionError, match=r"\|dH\| = "):
         gt.assert_conserves_energy(system, x, gt.one_step(system, "rk4", x, 0.5))
     moved = "fell" if system.direction > 0 else "rose"

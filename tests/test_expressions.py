@@ -212,7 +212,8 @@ def test_hostile_parameter_names_are_refused(tmp_path):
 def test_grammar_errors_name_the_field_and_the_piece():
     with pytest.raises(ValueError, match=r"`S`: not a whitelisted function: \"__import__\('os'\).system\""):
         expressions.parse("S", "__import__('os').system('ls')")
-    with pytest.raises(ValueError, match=r"`H`: unknown name \(declare parameters in `params`\): 'b'"):
+    unknown = r"`H`: unknown name \(declare parameters in `params`; in a scene file, `parameters`\): 'b'"
+    with pytest.raises(ValueError, match=unknown):
         expressions.parse("H", "a*x + b", ["a"])
 
 

@@ -304,3 +304,17 @@ def test_a_system_undefined_at_every_sample_point_is_not_accepted_unchecked():
     with pytest.raises(ValueError, match=r"not finite at any of their 6 sample points .* pass check=False"):
         geomint.MetriplecticSystem(**functions)
     assert geomint.MetriplecticSystem(**functions, check=False).name
+
+
+def test_check_must_be_true_or_false():
+    """``check="no"`` was taken as true (the checks ran); a word or a number is refused, in R^3 and in R^n."""
+    import importlib
+
+    gas = importlib.import_module("geomint.systems.gas_containers")  # the module (the package names the function)
+
+    with pytest.raises(TypeError, match=r"`check` must be True or False; got 'no'"):
+        geomint.MetriplecticSystem(H=_H, grad_H=_grad_H, S=_S, grad_S=_grad_S, J=_J, check="no")
+    functions = dict(E=gas._E, grad_E=gas._grad_E, S=gas._S, grad_S=gas._grad_S, L=gas._L, M=gas._M, params=[0.5])
+    with pytest.raises(TypeError, match=r"`check` must be True or False; got 0"):
+        geomint.GenericSystem(**functions, dim=4, samples=gas.SAMPLES, check=0)
+    assert geomint.GenericSystem(**functions, dim=4, samples=gas.SAMPLES, check=False).dim == 4

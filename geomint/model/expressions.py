@@ -135,7 +135,7 @@ class _Builder:
             return self.number(node)
         if isinstance(node, ast.Name):
             if node.id not in self.symbols:
-                self.refuse(node, "unknown name (declare parameters in `params`)")
+                self.refuse(node, "unknown name (declare parameters in `params`; in a scene file, `parameters`)")
             return self.symbols[node.id]
         if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
             operand = self.build(node.operand)

@@ -184,7 +184,7 @@ class MetriplecticSystem:
         )
         check_shapes(self.functions, self._params)
         self.exact_flows = declared_exact_flows(exact_flows)
-        if check:
+        if _validate.flag("check", check):
             with np.errstate(all="ignore"):  # finite differences of huge values overflow: the checks see inf/nan
                 check_structure(self)
                 check_exact_flows(self)
@@ -269,9 +269,7 @@ class MetriplecticSystem:
             with np.errstate(all="ignore"):
                 check_structure(other)
         if hamiltonian is not None:
-            if not isinstance(hamiltonian, (bool, np.bool_)):
-                raise TypeError(f"`hamiltonian` must be True or False; got {hamiltonian!r}.")
-            other.hamiltonian = bool(hamiltonian)
+            other.hamiltonian = _validate.flag("hamiltonian", hamiltonian)
         if eps is not None:
             other.eps = _check_eps(eps)
         return other

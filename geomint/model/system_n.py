@@ -215,8 +215,8 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
             M_apply=None if given["M_apply"] is None else action_function(names["M_apply"], given["M_apply"], n),
         )
         self._samples = check_samples(samples, n)
-        self._checked = bool(check)
-        self._check(check)
+        self._checked = _validate.flag("check", check)
+        self._check(self._checked)
 
     def _check(self, structure):
         """Shapes at the first sample; the structure at all of them when ``structure``."""
@@ -299,9 +299,7 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
             record_params(other, values)
             other._check(self._checked)
         if hamiltonian is not None:
-            if not isinstance(hamiltonian, (bool, np.bool_)):
-                raise TypeError(f"`hamiltonian` must be True or False; got {hamiltonian!r}.")
-            other.hamiltonian = bool(hamiltonian)
+            other.hamiltonian = _validate.flag("hamiltonian", hamiltonian)
         if eps is not None:
             other.eps = _check_eps(eps)
         return other

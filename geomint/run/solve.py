@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .. import _user_errors
+from .. import _user_errors, _validate
 from .._kernels import layout as _layout
 from .._kernels import loop as _loop
 from ..integrators import DormandPrince853, Gonzalez, Projected, resolve
@@ -222,8 +222,7 @@ def solve(
     if isinstance(system, MetriplecticSystemN):
         check_in_rn(system, integrator, step_data)
     check_direction(integrator, step_data, t_span, t0, t_end)
-    if not isinstance(dense_output, (bool, np.bool_)):
-        raise TypeError(f"`dense_output` must be True or False; got {dense_output!r}.")
+    dense_output = _validate.flag("dense_output", dense_output)
     events = None if events is None else Events(events)  # pyright: ignore[reportAssignmentType]  # validated
     t_eval = None if t_eval is None else check_t_eval(t_eval, t0, t_end)
     h, control = check_step_or_control(integrator, h, rtol, atol, first_step, max_step, t0, t_end)
