@@ -237,3 +237,10 @@ def test_new_params_reach_the_recorded_formulas_of_saved_results(tmp_path):
         params={"k": 1.0, "g": 0.5},
     )
     assert oscillator.with_effects(params=[2.0, 0.25]).expressions["params"] == {"k": 2.0, "g": 0.25}
+
+
+def test_with_P_given_the_casimir_message_says_J_is_its_axial_vector():
+    with pytest.raises(ValueError, match=r"`S` is not a Casimir of J, the axial vector of `P` \(P v = v x J\): grad S"):
+        geomint.MetriplecticSystem.from_expressions(
+            H="(x**2 + y**2 + z**2)/2", S="z**2/2", P=[["0", "0", "0"], ["0", "0", "1"], ["0", "-1", "0"]]
+        )

@@ -318,3 +318,11 @@ def test_check_must_be_true_or_false():
     with pytest.raises(TypeError, match=r"`check` must be True or False; got 0"):
         geomint.GenericSystem(**functions, dim=4, samples=gas.SAMPLES, check=0)
     assert geomint.GenericSystem(**functions, dim=4, samples=gas.SAMPLES, check=False).dim == 4
+
+
+@pytest.mark.parametrize("dim", [3.0, True])
+def test_a_dimension_that_is_not_an_integer_is_named_before_J(dim):
+    """``dim=3.0`` is not the integer 3, so the R^n class is asked, which takes no J: the dimension is what is
+    wrong, and the message names it."""
+    with pytest.raises(TypeError, match=r"`dim` must be an integer >= 2 \(the dimension n of the state\); got"):
+        geomint.MetriplecticSystem(H=_H, grad_H=_grad_H, S=_S, grad_S=_grad_S, J=_J, dim=dim)

@@ -292,17 +292,20 @@ def check_structure(
                 f"simplifies to {skew}. Write P with P[j][i] = -P[i][j] and a zero diagonal."
             )
         J = axial_of(P)
+    # with P given, J is its axial vector (P v = v x J): the messages say so
+    of_p = f", the axial vector of `{prefix}P` (P v = v x J)," if P is not None else ""
+    given = f"J{of_p}" if P is not None else f"`{prefix}J`"
     jacobi = _residual([sum(a * b for a, b in zip(J, _curl(J)))], values)[0]  # pyright: ignore[reportArgumentType]  # J or P given
     if jacobi != 0:
         raise ValueError(
-            f"`{prefix}J` fails Jacobi: J . curl J = 0 does not hold; the residual simplifies to {jacobi}. "
+            f"{given} fails Jacobi: J . curl J = 0 does not hold; the residual simplifies to {jacobi}. "
             "A J parallel to a gradient, J = f grad C, always satisfies it."
         )
     casimir = _residual(_cross(grad_S, J), values)
     if any(r != 0 for r in casimir):
         raise ValueError(
-            f"`{prefix}S` is not a Casimir of J: grad S x J = 0 fails; the residual simplifies to {casimir}. "
-            "J must be parallel to grad S everywhere."
+            f"`{prefix}S` is not a Casimir of J{of_p.rstrip(',')}: grad S x J = 0 fails; the residual simplifies "
+            f"to {casimir}. J must be parallel to grad S everywhere."
         )
 
 

@@ -174,6 +174,8 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         exact_flows: Any = None,
     ) -> None:
         if J is not None:
+            if dim is not None:
+                check_dim(dim)  # dim=3.0 came here from MetriplecticSystem: the dimension is what is wrong
             raise TypeError(
                 "`J` (an axial vector) describes a Poisson tensor in R^3 only: in R^n give `P`, the (n, n) skew matrix."
             )
