@@ -19,10 +19,11 @@ import threading
 from collections.abc import Iterable, Iterator, Mapping
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from ._kernels.layout import RAISED
 
 if TYPE_CHECKING:
-    import numpy as np
     import numpy.typing as npt
 
 
@@ -36,6 +37,20 @@ class UserFunctionError(ValueError):
     def __init__(self, function: str, x: Iterable[float], error: BaseException | None, advice: str = "") -> None:
         self.function, self.x = function, list(x)
         super().__init__(f"the user function `{function}` raised {error!r} at x = {self.x}. {advice}".rstrip())
+
+
+def wrote_into(function: str, before: npt.NDArray[np.float64], x: npt.NDArray[np.float64]) -> None:
+    """Refuse a user function that changed its argument: ``x`` after the call of ``function``, ``before`` a copy
+    taken before it (``x`` is put back first: the caller's state as it was).  The kernels pass a user function
+    the step's own state, which such a function would corrupt; the checks would blame whichever function they
+    call next."""
+    if not np.array_equal(before, x, equal_nan=True):
+        changed = x.tolist()
+        x[:] = before
+        raise ValueError(
+            f"the user function `{function}` wrote into its argument x (called at x = {before.tolist()}, x became "
+            f"{changed}): a user function must leave x unchanged (the kernels pass it the step's own state)."
+        )
 
 
 def raised_by(error: BaseException, functions: Mapping[str, Any]) -> str | None:

@@ -914,3 +914,35 @@ def test_no_states_give_empty_arrays_of_the_values_shape_as_in_R3():
     assert gas.H(none).shape == (0,) and gas.S(none).shape == (0,) and gas.dS_dt(none).shape == (0,)
     assert gas.grad_H(none).shape == (0, 4) and gas.xi(none).shape == (0, 4) and gas.P(none).shape == (0, 4, 4)
     assert gas.grad_H(np.ones((2, 4))).shape == (2, 4) and np.shape(gas.H(np.ones(4))) == ()
+
+
+@numba.njit
+def _L_writing_into_x(x, p):
+    x[1] = 7.0
+    n = x.shape[0]
+    out = np.zeros((n, n))
+    out[0, 1], out[1, 0] = 1.0, -1.0
+    return out
+
+
+def test_a_user_function_that_writes_into_x_is_named_not_another():
+    """A function that changes its argument would corrupt the kernels' state; the checks (which used to see the
+    changed sample and blame the next function) name it, and the samples stay as they were."""
+    import importlib
+
+    gas = importlib.import_module("geomint.systems.gas_containers")  # the module (the package names the function)
+    samples = gas.SAMPLES.copy()
+    with pytest.raises(ValueError, match=r"the user function `L` wrote into its argument x \(called at x = \["):
+        geomint.GenericSystem(
+            E=gas._E, grad_E=gas._grad_E, S=gas._S, grad_S=gas._grad_S, L=_L_writing_into_x, M=gas._M,
+            params=[0.5], dim=4, samples=gas.SAMPLES,
+        )  # fmt: skip
+    np.testing.assert_array_equal(gas.SAMPLES, samples)
+    system = geomint.GenericSystem(
+        E=gas._E, grad_E=gas._grad_E, S=gas._S, grad_S=gas._grad_S, L=_L_writing_into_x, M=gas._M,
+        params=[0.5], dim=4, samples=gas.SAMPLES, check=False,
+    )  # fmt: skip
+    x = np.array([1.5, 0.0, 2.0, 2.0])
+    with pytest.raises(ValueError, match=r"`L` wrote into its argument x .* x became \[1.5, 7.0, 2.0, 2.0\]"):
+        system.L(x)
+    assert x.tolist() == [1.5, 0.0, 2.0, 2.0]  # the caller's state as it was

@@ -338,6 +338,7 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
         if f is None:  # P or M given as an action (``_check`` made sure one form is given)
             return np.column_stack([self._call(role + "_apply", x, e) for e in np.eye(self.dim)])
         x = x if x.flags.c_contiguous else np.ascontiguousarray(x)
+        before = x.copy()
         try:
             if role.endswith("_apply"):
                 value = f(x, np.ascontiguousarray(v, dtype=np.float64), self._params)
@@ -345,6 +346,7 @@ class MetriplecticSystemN(MetriplecticSystem, rn=True):
                 value = f(x, self._params)
         except Exception as error:
             raise _user_errors.UserFunctionError(self._names[role], x.tolist(), error) from error
+        _user_errors.wrote_into(self._names[role], before, x)
         return float(value) if role in ("H", "S") else np.asarray(value, dtype=np.float64)
 
     def _apply(self, role, x, v) -> Any:
