@@ -442,15 +442,15 @@ def _on_grid(system, integrator, step_data, x0, t0, t_end, h, save_every, progre
     clock = _layout.new_clock(t0 + k_begin * grid.h, steps=k_begin)
     stops = np.array([t_end])
     with _user_errors.catching(counters) as raised, interrupts() as interrupted:
-        chunk, checkpointed, checked = FIRST_CHUNK, k_begin, False
+        chunk, checkpointed = FIRST_CHUNK, k_begin
         while k_begin < n_steps and counters[_layout.STATUS] == _layout.OK:
             k_end = min(n_steps, k_begin + chunk)
+            first = counters[_layout.ROWS] == 0  # (a resumed run's start was checked by the run it resumes)
             chunk = next_chunk(
                 chunk, run_chunk(system, step_data, grid, state, work, clock, stops, k_end - k_begin, out)
             )
-            if not checked:
+            if first:
                 _check_start(system, x0, out)
-                checked = True
             k_begin = k_end
             if progress is not None:
                 progress(int(counters[_layout.STEPS]))
