@@ -92,7 +92,6 @@ from .newton import ARMIJO, HOMING_MIN_DAMPING
 from .vecn import (
     LAPACK_INT,
     abs_dot,
-    all_finite,
     axpy_into,
     copy_into,
     dot,
@@ -103,7 +102,6 @@ from .vecn import (
     norm_inf,
     remove_along,
     remove_scaled,
-    scaled_into,
 )
 
 #: an accepted step keeps H to its anchor within this many ulps of its terms
@@ -219,7 +217,7 @@ V_K1, V_K2, V_K3, V_K4 = 12, 13, 14, 15  # RK4 stages
 V_PIVOTS = 16  # the pivots of the factors (LAPACK's: integers in the same space)
 V_G0 = 17  # the dissipative part at x (damped step)
 V_ROWS = 18  # scratch (row sums)
-V_EH, V_ES = 19, 20  # the discrete gradients scaled by their largest component (``vecn.scaled_into``)
+V_EH, V_ES = 19, 20  # the discrete gradients scaled by their largest component (``discrete_field_n``)
 N_VECTORS = 21
 
 
@@ -269,10 +267,14 @@ def _project_identity(out, f_old, f_new, dx, y, gain, constant):
     (``discrete_gradient.gonzalez``): only where the defect exceeds its round-off bound and its correction's
     round-off, carried into the step by ``gain``, stays below 1% of the step.  Returns that round-off (0 where
     the correction is skipped)."""
-    slope = dot(out, dx)
+    slope, terms, largest = 0.0, 0.0, 0.0  # dot(out, dx), abs_dot(out, y) and norm_inf(dx), in one pass
+    for i in range(dx.shape[0]):
+        slope += out[i] * dx[i]
+        terms += abs(out[i] * y[i])
+        a = abs(dx[i])
+        largest = a if a > largest or a != a else largest
     defect = f_new - f_old - slope
-    bound = 2.0 * EPS * term_scale_n(f_old, f_new, out, y, constant)
-    largest = norm_inf(dx)
+    bound = 2.0 * EPS * (max(abs(f_old), abs(f_new), terms) + abs(constant))  # term_scale_n
     if not abs(defect) > bound or not bound * gain <= 0.01 * largest * largest or largest == 0.0:
         return 0.0
     length2 = 0.0
@@ -399,28 +401,58 @@ def discrete_field_n(kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, y, gain
         )
     for i in range(n):
         mid[i] = 0.5 * (x[i] + y[i])
-    F[:] = 0.0
     norm_p, norm_m = 0.0, 0.0
-    # the projections along dgS and dgH (``vecn.remove_along``), each direction scaled once for all of them
-    eh = vector(work, V_EH, n)
-    hh = scaled_into(eh, dgh)
+    user_metric = eps != 0.0 and model.metric != PAPER_METRIC
+    # The projections along dgS and dgH (``vecn.remove_along``: u - (u . e / e . e) e, e = d / |d|_inf), each
+    # direction scaled once for all of them (``vecn.remove_scaled``), their independent sums taken
+    # in shared passes: the same arithmetic, in fewer passes over the vectors.
+    eh, es, c = vector(work, V_EH, n), vector(work, V_ES, n), vector(work, V_C, n)
+    size_h, size_s = norm_inf(dgh), norm_inf(dgs) if hamiltonian else 0.0
+    with_h = size_h != 0.0 and np.isfinite(size_h)
+    with_s = hamiltonian and size_s != 0.0 and np.isfinite(size_s)
+    hh, ss, h_s, s_h = 0.0, 0.0, 0.0, 0.0  # eh . eh, es . es, dgH . es, dgS . eh
+    for i in range(n):
+        if with_h:
+            e = dgh[i] / size_h
+            eh[i] = e
+            hh += e * e
+            s_h += dgs[i] * e
+        if with_s:
+            e = dgs[i] / size_s
+            es[i] = e
+            ss += e * e
+            h_s += dgh[i] * e
     if hamiltonian:  # Pi_S P(xbar) Pi_S dgH
-        es = vector(work, V_ES, n)
-        ss = scaled_into(es, dgs)
-        remove_scaled(copy_into(a, dgh), es, ss)
+        k = h_s / ss if with_s else 0.0
+        for i in range(n):
+            a[i] = dgh[i] - k * es[i] if with_s else dgh[i]
         norm_p = apply_P(model, mid, a, F, True)
-        remove_scaled(F, es, ss)
-    if eps != 0.0:
-        if model.metric == PAPER_METRIC:  # (dgH . dgS) dgH - |dgH|^2 dgS = -|dgH|^2 Pi_H dgS
-            c, d = dot(dgh, dgs), dot(dgh, dgh)
-            for i in range(n):
-                F[i] += eps * (c * dgh[i] - d * dgs[i])
-        else:  # Pi_H M(xbar) Pi_H dgS
-            remove_scaled(copy_into(a, dgs), eh, hh)
-            norm_m = apply_M(model, mid, a, b, True)
-            remove_scaled(b, eh, hh)
-            for i in range(n):
-                F[i] += eps * b[i]
+    else:
+        F[:] = 0.0
+    if user_metric:  # Pi_H M(xbar) Pi_H dgS
+        k = s_h / hh if with_h else 0.0
+        for i in range(n):
+            c[i] = dgs[i] - k * eh[i] if with_h else dgs[i]
+        norm_m = apply_M(model, mid, c, b, True)
+    f_s, b_h = 0.0, 0.0  # F . es, b . eh
+    for i in range(n):
+        if with_s:
+            f_s += F[i] * es[i]
+        if user_metric and with_h:
+            b_h += b[i] * eh[i]
+    k_f = f_s / ss if with_s else 0.0
+    k_b = b_h / hh if user_metric and with_h else 0.0
+    for i in range(n):
+        if with_s:
+            F[i] -= k_f * es[i]
+        if user_metric:
+            if with_h:
+                b[i] -= k_b * eh[i]
+            F[i] += eps * b[i]
+    if eps != 0.0 and model.metric == PAPER_METRIC:  # (dgH . dgS) dgH - |dgH|^2 dgS = -|dgH|^2 Pi_H dgS
+        cd, dd = dot(dgh, dgs), dot(dgh, dgh)
+        for i in range(n):
+            F[i] += eps * (cd * dgh[i] - dd * dgs[i])
     remove_scaled(F, eh, hh)  # F . dgH = 0 holds identically; this removes the rounding of the products along dgH
     return H_y, S_y, noise, norm_p, norm_m
 
@@ -603,20 +635,23 @@ def _iterate(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, wo
         H_y, S_y, noise, norm_p, norm_m = discrete_field_n(
             kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, y, gain_h, gain_s, work
         )
-        if not (all_finite(F) and np.isfinite(H_y) and np.isfinite(S_y)):
-            return NON_FINITE, H_y, S_y, iteration, iteration, np.inf, non_finite_culprit_n(model, y, hamiltonian)
-        gain_h, gain_s = gains(model, eps, h, vector(work, V_DGH, n), vector(work, V_DGS, n), norm_p, norm_m)
+        increment, size_f = 0.0, 0.0  # and norm_inf(F), NaN where F is not finite: one pass
         for i in range(n):
             r[i] = (y[i] - x[i]) - h * F[i]
+            increment = max(increment, abs(y[i] - x[i]))
+            a = abs(F[i])
+            size_f = a if a > size_f or a != a else size_f
+        if not (np.isfinite(size_f) and np.isfinite(H_y) and np.isfinite(S_y)):
+            return NON_FINITE, H_y, S_y, iteration, iteration, np.inf, non_finite_culprit_n(model, y, hamiltonian)
+        gain_h, gain_s = gains(model, eps, h, vector(work, V_DGH, n), vector(work, V_DGS, n), norm_p, norm_m)
         if newton:
             solve(work, n, r)
-        error = norm_inf(r)
-        increment = 0.0
+        error = 0.0  # norm_inf(r), as y moves by r
         for i in range(n):
-            increment = max(increment, abs(y[i] - x[i]))
-        resolution = EPS * (increment + abs(h) * norm_inf(F))
-        for i in range(n):
+            a = abs(r[i])
+            error = a if a > error or a != a else error
             y[i] -= r[i]
+        resolution = EPS * (increment + abs(h) * size_f)
         theta = error / previous
         if newton and iteration == 2 and previous > 64.0 * resolution:  # a rate measured above round-off
             rate = theta

@@ -45,12 +45,25 @@ def abs_dot(u, v):
 
 @inner
 def norm_inf(u):
-    m = 0.0
-    for i in range(u.shape[0]):
-        a = abs(u[i])
-        if not a <= m:  # NaN propagates
-            m = a
-    return m
+    """``max_i |u_i|``, NaN where any component is NaN.  Four running maxima (a maximum is exact in any order):
+    independent chains the processor overlaps, where one chain waits on each comparison."""
+    n = u.shape[0]
+    m0, m1, m2, m3 = 0.0, 0.0, 0.0, 0.0
+    i = 0
+    while i + 4 <= n:
+        a0, a1, a2, a3 = abs(u[i]), abs(u[i + 1]), abs(u[i + 2]), abs(u[i + 3])
+        m0 = a0 if a0 > m0 or a0 != a0 else m0  # a NaN, once taken, stays
+        m1 = a1 if a1 > m1 or a1 != a1 else m1
+        m2 = a2 if a2 > m2 or a2 != a2 else m2
+        m3 = a3 if a3 > m3 or a3 != a3 else m3
+        i += 4
+    while i < n:
+        a0 = abs(u[i])
+        m0 = a0 if a0 > m0 or a0 != a0 else m0
+        i += 1
+    for m in (m1, m2, m3):
+        m0 = m if m > m0 or m != m else m0
+    return m0
 
 
 @inner
@@ -77,23 +90,9 @@ def axpy_into(out, a, u, v):
 
 
 @inner
-def scaled_into(out, direction):
-    """``out = d / |d|_inf``; returns ``|out|^2``, 0 where ``d = 0`` or is not finite: a direction prepared once
-    for several ``remove_scaled``, each then the same arithmetic as ``remove_along``'s, bit for bit."""
-    size = norm_inf(direction)
-    if size == 0.0 or not np.isfinite(size):
-        return 0.0
-    dd = 0.0
-    for i in range(direction.shape[0]):
-        e = direction[i] / size
-        out[i] = e
-        dd += e * e
-    return dd
-
-
-@inner
 def remove_scaled(u, e, dd):
-    """``remove_along(u, d)`` with ``(e, dd)`` from ``scaled_into(e, d)`` (nothing where ``dd`` is 0)."""
+    """``remove_along(u, d)`` with ``e = d / |d|_inf`` and ``dd = e . e`` prepared by the caller, once for several
+    vectors (nothing where ``dd`` is 0): the same arithmetic as ``remove_along``'s, bit for bit."""
     if dd == 0.0:
         return u
     ud = 0.0
