@@ -64,7 +64,7 @@ def _factor_many(a, copy, pivots_hand, pivots_lapack, lapack, times):
         if lapack:
             lapack_factor(a, pivots_lapack)
         else:
-            lu_factor(a, pivots_hand)
+            lu_factor(a.ravel(), 0, a.shape[0], pivots_hand, 0)
 
 
 def lu_times(sizes, repeats):
@@ -401,7 +401,7 @@ def _geomint_field(data, model, eps, hamiltonian, x, y, H_x, S_x, work, times):
     total, y0 = 0.0, y[0]
     for _ in range(times):
         H_y, S_y, noise, size_p, size_m = step_n.discrete_field_n(
-            data.kind.code, data.coeffs, model, eps, hamiltonian, x, H_x, S_x, y, 0.0, 0.0, work
+            data.kind.code, data.coeffs, model, eps, hamiltonian, x, H_x, S_x, y, 0.0, 0.0, work, True
         )
         total += H_y + noise
         y[0] = y0 + 0.0 * total
@@ -771,23 +771,32 @@ Reading these tables (the run this page was written from):
 
 - **Each floor is a floor**: exact at every step of its run (no step failing, |ΔH| within 2.4 ulps of its terms, S
   never against its direction), on geomint's trajectory (final states within 3·10⁻¹¹) and as close to the step's
-  root as geomint's solvers within that measure's noise (10⁴ × closer on the pendula). geomint's automatic
-  choice costs 1.7 (gas containers), 1.4 (Euler), 1.6 (random Fish) and 4.3 (pendula) × the floor (medians of 5
-  fresh processes, 2026-11-26, with the step's damped last attempt, which these runs never reach; the ratios of
-  the median times 1.69, 1.42, 1.57 and 4.32; a run the day before on a noisier machine, where the floors varied
-  by 15 %, read 1.76, 1.45, 1.55 and 4.26). Before the
-  step loop stopped counting references to its arrays (docs/engine_speed.md, reading) they were 4.5, 5.5, 7.3 and
-  4.6; before the catalogue's Euler and random Fish P were written at the cost of their structure (below), 1.9,
-  3.2, 6.7 and 4.2; before the solver choice priced the field's fixed part and Newton's refreshes (below), 2.05 and
-  2.02 on the gas containers and the random Fish system. The figures in the bullets below are from earlier runs
-  where they differ from the tables above, which are this run's.
-- **Iterations (×2.6 on the pendula).** The floor forms a fresh Jacobian at every step where the system makes it
-  cost about one iteration: the 4 × 4 by differences, and the pendula's 2 × 2 blocks and s row from the zero
-  pattern of L and M, O(n); from the linearly implicit start it needs 3.7 iterations. geomint does not know that
-  pattern, so a Jacobian costs it n + 1 field evaluations and a dense LU: on the pendula its automatic choice ends
-  in the fixed point (9.6 iterations), and its Newton, forced, costs 14 × the floor (O(n³) a refresh at n = 257).
-  This is the issue's point: the zero pattern, which formulas know symbolically and a library could probe. On
-  the other systems the iterations nearly agree (×1.9 on the gas containers, ×1.1 on Euler, ×1.3 on random Fish).
+  root as geomint's solvers within that measure's noise. This page was regenerated on a new machine
+  (2026-11-26, the fourth session of issue 30), where the hand-written floors run faster relative to geomint
+  than on the machine of the earlier figures: the gas containers' floor takes 2.2 µs a step here, 3.2 there,
+  for the same geomint step (5.7 and 5.6 µs, 7.0–7.2 iterations): 2.6 × here, 1.7 × there. Earlier in the
+  history of these ratios: before the step loop stopped counting references to its arrays (docs/engine_speed.md,
+  reading) they were 4.5, 5.5, 7.3 and 4.6; before the catalogue's Euler and random Fish P were written at the
+  cost of their structure (below), 1.9, 3.2, 6.7 and 4.2; the pendula were at 3.7–4.5 × until this session.
+  The figures in the bullets below are from earlier runs where they differ from the tables above.
+- **The pendula at the floor's iterations (3.7 a step).** The floor forms the pendula's Newton matrix from the
+  zero pattern of L and M at every step (each pendulum's 2 × 2 block and the s row, O(n)). geomint now probes
+  that pattern once a run (`sparse_n`, docs/engine_rn.md "Solving the step": n + 1 evaluations of ξ, ~0.45 ms
+  at n = 257, ~3 µs a step of this 155-step run), finds 129 blocks in 2 colours and the entropy's row bordered,
+  and takes a fresh block Jacobian at every step (3 evaluations of ξ) with the linearly implicit start: 3.7
+  Newton iterations a step (3.8 in the automatic choice, which tries the fixed point now and then), where it
+  took 9.6 fixed-point iterations (Newton, forced, with its dense Jacobian: 14 × the floor). Three changes made
+  the iterations match: the entropy's row solved by one directional difference a solve (left out of the
+  matrix, s trails the others by an iteration: 5.4 iterations), the first iterate's field with Gonzalez's
+  correction (the last step's gains: 5.05 → 3.7 with a dense fresh Jacobian), and the fresh Jacobian at
+  every step (kept while it contracts: 5.3). The rest of the gap is the field (×1.25: geomint's 5.3 µs, of
+  which the user's functions 2.6, against the floor's 4.3) and the rest of the step (×1.5: the directional
+  difference, ~1.5 µs a solve; the refresh, ~6 µs; the probe; the level corrections). The pattern pays after
+  about n/5 steps: at n = 1025 the 39-step run of the table above pays a probe of ~6 ms for ~4 Newton
+  iterations a step and costs 1.5 × the fixed point; a long run gains.
+- **The discrete field in fewer passes** (this session): its dot products and maxima in four partial chains,
+  the projections' sums in shared passes, the Gonzalez correction and the scalings by a reciprocal: 9.5 → 5.3
+  µs a field on the pendula (of which the user's functions 2.6).
 - **The solver choice's cost model.** It counts field evaluations, a field modelled as 1000 + 4n² flops (matrices)
   or 1000 + 100n (actions); the fixed 1000, added in this run, is the field's own work around the user's
   functions (the last column but one below: ~1.1 µs at n = 4 and 24). Without it a Newton iteration at n = 4 was
@@ -819,21 +828,20 @@ Reading these tables (the run this page was written from):
   on the gas containers, 0.7 on the pendula), and in geomint's on the random Fish system (×1.4): its automatic
   choice starts with Newton, whose Jacobian costs n + 1 = 65 evaluations of a field of O(n³).
 - **geomint's fixed point stops short of the root on the pendula**: residuals up to 3·10⁴ ulps of |x′| (in s),
-  where its Newton ends at 25 and the floor at 4, apparently where its iteration accepts a correction that has
+  where its Newton ends at 4, as the floor, apparently where its iteration accepts a correction that has
   stopped shrinking below √eps |x| (`step_n._iterate`; not separated here). H and S stay exact (its level
-  corrections), but the step is not the scheme's root to round-off: its final state is 3·10⁻¹¹ from the floor's
-  (10⁻⁹ mid-run, in s), against 10⁻¹⁴ on the other systems, and its 9.6 iterations a step would likely be more
-  at round-off.
+  corrections), but the step is not the scheme's root to round-off: its final state is 3·10⁻¹¹ from the floor's.
 """
 
 
 READING = """
 ## Reading the tables (the run this page was written from)
 
-- **Pendula as actions: the cost per step is linear in n.** From n = 257 to n = 16385 (×64) the step costs
-  ×80 (the fixed point, 9.6 → 11.8 iterations: the mean rate stays ≈ 0.05 = (h/2)|Dξ|), 5–8 × the
-  hand-written floor `pendula_floor`, which is exact at every step too. Given as matrices the same system pays O(n²) per
-  iteration (×13 at n = 257), and Newton O(n³) per refresh (×3 the fixed point at n = 257).
+- **Pendula as actions: the cost per step is linear in n.** Up to n = 2048 by Newton on the Jacobian's zero
+  pattern (3.7 iterations, 1.7–2.1 × the hand-written floor `pendula_floor`, which is exact at every step too;
+  at n = 1025 the probe outweighs a 39-step run), above by the fixed point (9.7 → 11.8 iterations from n = 4097
+  to n = 16385: the mean rate stays ≈ 0.05 = (h/2)|Dξ|; ~3 × the floor). Given as matrices the same system
+  pays O(n²) per iteration (×13 at n = 257), and Newton O(n³) per refresh (×3 the fixed point at n = 257).
 - **Newton wins** where a field evaluation costs about as much as the solve (matrices) and the fixed point
   needs more iterations: Euler at n = 48 (fixed point / Newton 1.04; at n = 24 the fixed point, 0.91, since
   its P costs O(n²) from tables), 1.1 at h = 0.2, the pendula as matrices at n = 17 (1.5), random Fish at n = 4

@@ -255,7 +255,7 @@ def _factor(fac, h):
         a[i, i] += 1.0
     if n >= LAPACK_MIN_N:
         return lapack_factor(a, fac[2])
-    return lu_factor(a, fac[1])
+    return lu_factor(a.ravel(), 0, n, fac[1], 0)
 
 
 @jit
@@ -263,7 +263,7 @@ def _dense_solve(fac, b):
     if fac[0].shape[0] >= LAPACK_MIN_N:
         lapack_solve(fac[0], fac[2], b)
     else:
-        lu_solve(fac[0], fac[1], b)
+        lu_solve(fac[0].ravel(), 0, fac[0].shape[0], fac[1], 0, b)
 
 
 @jit

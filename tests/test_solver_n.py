@@ -23,14 +23,16 @@ def _pendula_start(N, seed=0):
     return np.concatenate([rng.uniform(-2.0, 2.0, N), rng.uniform(-1.0, 1.0, N), [0.0]])
 
 
-def _run(system, x0, t_end, h, solver=step_n.AUTO, method=None):
-    """Fixed steps on the grid with the solver the workspace asks for (``step_n.WN_SOLVER``): the states, H and S
-    saved at every step, the counters and the workspace."""
+def _run(system, x0, t_end, h, solver=step_n.AUTO, method=None, pattern=True):
+    """Fixed steps on the grid with the solver the workspace asks for (``step_n.WN_SOLVER``), the Jacobian's zero
+    pattern allowed or not (``step_n.WN_SPARSE``): the states, H and S saved at every step, the counters and the
+    workspace."""
     data = (method or geomint.Gonzalez()).lower(system)
     grid, n_steps = constant_grid(0.0, t_end, h, 1)
     out = new_output(n_steps + 2, len(x0))
     work, state = new_run_state(data, np.asarray(x0, dtype=float), True)
     work[step_n.WN_SOLVER] = solver
+    work[step_n.WN_SPARSE] = 0.0 if pattern else -1.0
     clock = layout.new_clock(0.0)
     loop.run(
         system.model, system.eps, system.hamiltonian, data, grid, state, work, clock, np.array([t_end]), n_steps, out
@@ -60,7 +62,7 @@ def _random_fish_actions(n, seed, eps):
     )
 
 
-@pytest.mark.parametrize("N", [8, 40])  # n = 17: both forms by Newton; n = 81: the actions by the fixed point
+@pytest.mark.parametrize("N", [8, 40])  # n = 17: both forms by Newton; n = 81: the actions by the zero pattern
 def test_action_and_matrix_forms_give_the_same_trajectories(N):
     x0 = _pendula_start(N)
     runs = {
@@ -103,13 +105,17 @@ def test_both_solvers_make_every_step_exact(name, solver):
 
 
 def test_the_solver_is_chosen_by_contraction():
-    """Pendula as actions at n = 257: the fixed point contracts (~h/2 |D xi| = 0.05) and is kept; as matrices at
-    n = 17, Newton, cheaper per step there.  A stiff relaxation (h eps |D xi_g| ~ 1e2): the fixed point does not
-    contract and Newton takes over."""
+    """Pendula as actions at n = 257 with a dense Jacobian (the zero pattern refused): the fixed point contracts
+    (~h/2 |D xi| = 0.05) and is kept; with the pattern (a refresh: 3 evaluations, 129 blocks), Newton.  As
+    matrices at n = 17, Newton, cheaper per step there.  A stiff relaxation (h eps |D xi_g| ~ 1e2): the fixed
+    point does not contract and Newton takes over."""
     N = 128
-    *_, counters, work = _run(systems.damped_pendula(N), _pendula_start(N), 5.0, 0.1)
+    *_, counters, work = _run(systems.damped_pendula(N), _pendula_start(N), 5.0, 0.1, pattern=False)
     assert counters[layout.STATUS] == 0 and work[step_n.WN_MODE] == 1.0
     assert 0.0 < work[step_n.WN_RATE] < 0.2 and counters[layout.NEWTON_ITERATIONS] / counters[layout.STEPS] < 12
+    *_, counters, work = _run(systems.damped_pendula(N), _pendula_start(N), 5.0, 0.1)
+    assert counters[layout.STATUS] == 0 and work[step_n.WN_MODE] == 0.0 and work[step_n.WN_SPARSE] == 1.0
+    assert counters[layout.NEWTON_ITERATIONS] / counters[layout.STEPS] < 5
     *_, counters, work = _run(systems.damped_pendula(8, form="matrix"), _pendula_start(8), 5.0, 0.1)
     assert work[step_n.WN_MODE] == 0.0 and work[step_n.WN_FIXED_POINT_ITERATIONS] > 0  # probed, not kept
     stiff = _random_fish_actions(80, 2, 1e3)
@@ -128,9 +134,9 @@ def _factor_and_solve(a, b, lapack):
             lapack_solve(a, pivots, b)
     else:
         pivots = np.zeros(n)
-        ok = lu_factor(a, pivots)
+        ok = lu_factor(a.ravel(), 0, n, pivots, 0)
         if ok:
-            lu_solve(a, pivots, b)
+            lu_solve(a.ravel(), 0, n, pivots, 0, b)
     return ok
 
 

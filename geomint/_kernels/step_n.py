@@ -26,6 +26,10 @@ contracts (``choose_solver``; docs/engine_rn.md, "Solving the step"):
   across iterations and steps while the iteration contracts, refreshed where
   it does not or where ``h`` changes (the rules of SUNDIALS and RADAU5);
   O(n^2) per iteration, O(n^3) per refresh;
+* above ``SPARSE_MIN_N``, the same Newton with ``D xi`` differenced and factored by its zero pattern where the
+  pattern pays (``sparse_n``: probed once a run, coloured, block by block, a dense row whose coordinate feeds
+  nothing back solved exactly by one directional difference a solve), taken fresh at every step where a
+  refresh costs less than ``FRESH_REFRESH_COST`` field evaluations;
 * the fixed-point iteration ``x' <- x + h F(x, x')``, no Jacobian: O(cost of
   the field) per iteration, converging linearly at the rate ``~ (h/2) |D xi|``:
   kept while its iterations cost less than Newton's (its rate makes its count:
@@ -79,9 +83,11 @@ from .layout import (
     EPS,
     GONZALEZ,
     ITOH_ABE,
+    M_ACTION,
     NEWTON_FAILED,
     NON_FINITE,
     OK,
+    P_ACTION,
     PAPER_METRIC,
     SQRT_EPS,
     SYMMETRIZED_ITOH_ABE,
@@ -89,6 +95,12 @@ from .layout import (
     StepResult,
 )
 from .newton import ARMIJO, HOMING_MIN_DAMPING
+from .sparse_n import factor as factor_blocks
+from .sparse_n import fits, keep_base, probe, refresh_evaluations
+from .sparse_n import refresh as refresh_blocks
+from .sparse_n import refresh_cost as refresh_cost_blocks
+from .sparse_n import solve as solve_blocks
+from .sparse_n import solve_weight as solve_weight_blocks
 from .vecn import (
     LAPACK_INT,
     abs_dot,
@@ -102,6 +114,7 @@ from .vecn import (
     norm_inf,
     remove_along,
     remove_scaled,
+    scaled_norm2,
 )
 
 #: an accepted step keeps H to its anchor within this many ulps of its terms
@@ -151,6 +164,16 @@ THETA_DIVERGE = 0.9
 #: above this n the first step iterates the fixed point (a first Jacobian costs n field evaluations and O(n^3));
 #: at or below it, Newton
 FIRST_NEWTON_N = 64
+
+
+#: above this n a run probes its Jacobian's zero pattern (n + 1 field evaluations, once) and, where the pattern
+#: pays (``sparse_n``), differences and factors the Newton matrix by it
+SPARSE_MIN_N = 64
+
+
+#: with the zero pattern, a refresh that costs at most this many field evaluations is taken at every Newton step,
+#: with the linearly implicit start (fewer iterations than the extrapolated start on the pendula)
+FRESH_REFRESH_COST = 4.0
 
 
 #: Newton iterations per step, and refreshes per Newton step, assumed before any are measured: one refresh per
@@ -205,7 +228,9 @@ WN_SOLVER = 11  # AUTO, NEWTON_ONLY or FIXED_POINT_ONLY (set by the caller)
 WN_NEWTON_ITERATIONS = 12  # the running average of a Newton step's iterations (0: none measured yet)
 WN_FIXED_POINT_ITERATIONS = 13  # the iterations of the last fixed-point step
 WN_REFRESHES = 14  # the running average of a Newton step's refreshes (the first step's not counted)
-WN_HEADER = 16
+WN_SPARSE = 15  # the Jacobian's zero pattern (``sparse_n``): 0 not probed yet, 1 in use, -1 not used
+WN_GAINS = 16  # and 17: the gains (``gains``) of the last step's first iterate over |h|, 0 before any
+WN_HEADER = 18
 V_DX1, V_DX2, V_DX3 = 0, 1, 2  # the last three increments
 V_NEW = 3  # the new state
 V_MID = 4  # the midpoint, and scratch of the field's Jacobian
@@ -218,7 +243,9 @@ V_PIVOTS = 16  # the pivots of the factors (LAPACK's: integers in the same space
 V_G0 = 17  # the dissipative part at x (damped step)
 V_ROWS = 18  # scratch (row sums)
 V_EH, V_ES = 19, 20  # the discrete gradients scaled by their largest component (``discrete_field_n``)
-N_VECTORS = 21
+V_GATHER = 21  # scratch of the block solve (``sparse_n.solve``)
+V_BASE, V_MOVED = 22, 23  # the point of the block Jacobian, and scratch of the solve's directional difference
+N_VECTORS = 24
 
 
 @njit(inline="always")  # called from Python (the run's workspace) and from the kernels
@@ -248,6 +275,26 @@ def lu_matrix(work, n):
 
 
 @inner
+def blocks_struct(work, n):
+    """Where the workspace uses the Jacobian's zero pattern (``WN_SPARSE`` 1): ``sparse_n``'s struct, in the LU
+    factors' n^2 floats."""
+    start = WN_HEADER + N_VECTORS * n + n * n
+    return work[start : start + n * n]
+
+
+@inner
+def blocks_factors(work, n):
+    """And ``sparse_n``'s packed factors, in the dense Jacobian's n^2 floats."""
+    start = WN_HEADER + N_VECTORS * n
+    return work[start : start + n * n]
+
+
+@inner
+def sparse(work):
+    return work[WN_SPARSE] > 0.0
+
+
+@inner
 def lapack_pivots(work, n):
     """The pivots of LAPACK's factors: ``LAPACK_INT`` integers in the space of the vector ``V_PIVOTS``."""
     return vector(work, V_PIVOTS, n).view(LAPACK_INT)[:n]
@@ -267,22 +314,17 @@ def _project_identity(out, f_old, f_new, dx, y, gain, constant):
     (``discrete_gradient.gonzalez``): only where the defect exceeds its round-off bound and its correction's
     round-off, carried into the step by ``gain``, stays below 1% of the step.  Returns that round-off (0 where
     the correction is skipped)."""
-    slope, terms, largest = 0.0, 0.0, 0.0  # dot(out, dx), abs_dot(out, y) and norm_inf(dx), in one pass
-    for i in range(dx.shape[0]):
-        slope += out[i] * dx[i]
-        terms += abs(out[i] * y[i])
-        a = abs(dx[i])
-        largest = a if a > largest or a != a else largest
+    slope = dot(out, dx)
     defect = f_new - f_old - slope
-    bound = 2.0 * EPS * (max(abs(f_old), abs(f_new), terms) + abs(constant))  # term_scale_n
+    bound = 2.0 * EPS * term_scale_n(f_old, f_new, out, y, constant)
+    largest = norm_inf(dx)
     if not abs(defect) > bound or not bound * gain <= 0.01 * largest * largest or largest == 0.0:
         return 0.0
-    length2 = 0.0
+    inverse = 1.0 / largest  # dx scaled by its largest component: |dx|^2 neither underflows nor overflows
+    length2 = scaled_norm2(dx, inverse)
+    c = defect * inverse * inverse / length2
     for i in range(dx.shape[0]):
-        length2 += (dx[i] / largest) ** 2
-    c = defect / largest / length2
-    for i in range(dx.shape[0]):
-        out[i] += c * (dx[i] / largest)
+        out[i] += c * dx[i]
     return bound / (largest * np.sqrt(length2))
 
 
@@ -327,12 +369,13 @@ def discrete_gradient_n(kind, coeffs, F, grad_F, params, x, y, f_old, f_new, gai
     dx, mid, vertex = scratch[0], scratch[1], scratch[2]
     for i in range(n):
         dx[i] = y[i] - x[i]
-    out[:] = 0.0
     if kind == GONZALEZ:
         for i in range(n):
             mid[i] = 0.5 * (x[i] + y[i])
         copy_into(out, grad_F(mid, params))
-    elif kind == AVF:
+    else:
+        out[:] = 0.0
+    if kind == AVF:
         nodes = coeffs.shape[0] // 2
         for k in range(nodes):
             for i in range(n):
@@ -379,7 +422,7 @@ def _symmetrized(out, F, grad_F, params, x, y, f_old, f_new, vertex, mid, order,
 
 # -- the discrete field ------------------------------------------------------------------------------------------
 @inner
-def discrete_field_n(kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, y, gain_h, gain_s, work):
+def discrete_field_n(kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, y, gain_h, gain_s, work, sized):
     """``F(x, y)`` of the module docstring into the workspace's ``V_F``; returns ``(H(y), S(y), noise, |P|, |M|)``
     with ``noise`` the round-off bound of the discrete gradients' quotients and the sizes of ``P(xbar)`` and
     ``M(xbar)`` (``field_n.apply_P``: the infinity norm of a matrix, the gain of an action on the vector it is
@@ -404,44 +447,32 @@ def discrete_field_n(kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, y, gain
     norm_p, norm_m = 0.0, 0.0
     user_metric = eps != 0.0 and model.metric != PAPER_METRIC
     # The projections along dgS and dgH (``vecn.remove_along``: u - (u . e / e . e) e, e = d / |d|_inf), each
-    # direction scaled once for all of them (``vecn.remove_scaled``), their independent sums taken
-    # in shared passes: the same arithmetic, in fewer passes over the vectors.
+    # direction scaled once for all of them (``vecn.remove_scaled``).
     eh, es, c = vector(work, V_EH, n), vector(work, V_ES, n), vector(work, V_C, n)
     size_h, size_s = norm_inf(dgh), norm_inf(dgs) if hamiltonian else 0.0
     with_h = size_h != 0.0 and np.isfinite(size_h)
     with_s = hamiltonian and size_s != 0.0 and np.isfinite(size_s)
-    hh, ss, h_s, s_h = 0.0, 0.0, 0.0, 0.0  # eh . eh, es . es, dgH . es, dgS . eh
+    inverse_h = 1.0 / size_h if with_h else 0.0
+    inverse_s = 1.0 / size_s if with_s else 0.0
     for i in range(n):
-        if with_h:
-            e = dgh[i] / size_h
-            eh[i] = e
-            hh += e * e
-            s_h += dgs[i] * e
-        if with_s:
-            e = dgs[i] / size_s
-            es[i] = e
-            ss += e * e
-            h_s += dgh[i] * e
+        eh[i] = dgh[i] * inverse_h
+        es[i] = dgs[i] * inverse_s
+    hh, s_h = (dot(eh, eh), dot(dgs, eh)) if with_h else (0.0, 0.0)  # eh . eh, dgS . eh
+    ss, h_s = (dot(es, es), dot(dgh, es)) if with_s else (0.0, 0.0)  # es . es, dgH . es
     if hamiltonian:  # Pi_S P(xbar) Pi_S dgH
         k = h_s / ss if with_s else 0.0
         for i in range(n):
             a[i] = dgh[i] - k * es[i] if with_s else dgh[i]
-        norm_p = apply_P(model, mid, a, F, True)
+        norm_p = apply_P(model, mid, a, F, sized)
     else:
         F[:] = 0.0
     if user_metric:  # Pi_H M(xbar) Pi_H dgS
         k = s_h / hh if with_h else 0.0
         for i in range(n):
             c[i] = dgs[i] - k * eh[i] if with_h else dgs[i]
-        norm_m = apply_M(model, mid, c, b, True)
-    f_s, b_h = 0.0, 0.0  # F . es, b . eh
-    for i in range(n):
-        if with_s:
-            f_s += F[i] * es[i]
-        if user_metric and with_h:
-            b_h += b[i] * eh[i]
-    k_f = f_s / ss if with_s else 0.0
-    k_b = b_h / hh if user_metric and with_h else 0.0
+        norm_m = apply_M(model, mid, c, b, sized)
+    k_f = dot(F, es) / ss if with_s else 0.0  # the products' components along es and eh
+    k_b = dot(b, eh) / hh if user_metric and with_h else 0.0
     for i in range(n):
         if with_s:
             F[i] -= k_f * es[i]
@@ -542,6 +573,9 @@ def refresh(model, eps, hamiltonian, damped, x, h, work):
             f0[i] += phi * g0[i]
             for j in range(n):
                 jac[i, j] += phi * dis[i, j]
+    elif sparse(work):
+        refresh_blocks(model, eps, hamiltonian, x, blocks_struct(work, n), blocks_factors(work, n), f0, shifted)
+        keep_base(blocks_struct(work, n), x, f0, vector(work, V_BASE, n))
     else:
         field_into(f0, model, eps, hamiltonian, x)
         jacobian_into(jac, model, eps, hamiltonian, x, f0, shifted, column)
@@ -551,7 +585,13 @@ def refresh(model, eps, hamiltonian, damped, x, h, work):
 @inner
 def factor(work, n, h):
     """``A = I - h/2 D xi`` from the kept Jacobian, factored in place: by hand below ``LAPACK_MIN_N``, by LAPACK
-    from it.  Returns False where A is singular."""
+    from it; block by block where the workspace uses the Jacobian's zero pattern.  Returns False where A is
+    singular."""
+    if sparse(work):
+        ok = factor_blocks(blocks_struct(work, n), blocks_factors(work, n), n, h)
+        work[WN_FACTORED] = 1.0 if ok else 0.0
+        work[WN_LU_H] = h
+        return ok
     jac, lu = jacobian_matrix(work, n), lu_matrix(work, n)
     for i in range(n):
         for j in range(n):
@@ -561,7 +601,7 @@ def factor(work, n, h):
         ok = lapack_factor(lu, lapack_pivots(work, n))
         work[WN_LAPACK] = 1.0
     else:
-        ok = lu_factor(lu, vector(work, V_PIVOTS, n))
+        ok = lu_factor(blocks_struct(work, n), 0, n, vector(work, V_PIVOTS, n), 0)
         work[WN_LAPACK] = 0.0
     work[WN_FACTORED] = 1.0 if ok else 0.0
     work[WN_LU_H] = h
@@ -569,12 +609,28 @@ def factor(work, n, h):
 
 
 @inner
-def solve(work, n, b):
-    """``b = A^-1 b`` (in place) with the kept factors."""
+def solve(model, eps, hamiltonian, work, n, b):
+    """``b = A^-1 b`` (in place) with the kept factors; returns the field evaluations it took (the block solve's
+    bordered rows: ``sparse_n.solve``)."""
+    if sparse(work):
+        return solve_blocks(
+            model,
+            eps,
+            hamiltonian,
+            work[WN_LU_H],
+            blocks_struct(work, n),
+            blocks_factors(work, n),
+            n,
+            b,
+            vector(work, V_GATHER, n),
+            vector(work, V_BASE, n),
+            vector(work, V_MOVED, n),
+        )
     if work[WN_LAPACK] > 0.0:
         lapack_solve(lu_matrix(work, n), lapack_pivots(work, n), b)
     else:
-        lu_solve(lu_matrix(work, n), vector(work, V_PIVOTS, n), b)
+        lu_solve(blocks_struct(work, n), 0, n, vector(work, V_PIVOTS, n), 0, b)
+    return 0
 
 
 @inner
@@ -618,7 +674,7 @@ def remember_n(work, n, y, x, h):
 
 # -- the solvers -------------------------------------------------------------------------------------------------
 @inner
-def _iterate(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, work, newton, give_up):
+def _iterate(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, work, newton, give_up, carry):
     """Iterate from the workspace's ``V_NEW`` (the start): simplified Newton with the kept factors where
     ``newton``, else the fixed point ``y <- x + h F(x, y)`` (the same iteration with A = I).  Returns
     ``(status, H(y), S(y), iterations, evaluations, rate, culprit)``: ``rate`` is the first contraction rate
@@ -629,11 +685,17 @@ def _iterate(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, wo
     n = x.shape[0]
     y, F, r = vector(work, V_NEW, n), vector(work, V_F, n), vector(work, V_R, n)
     previous, best, rate, measured, reference = np.inf, np.inf, 0.0, 0, np.inf
-    gain_h, gain_s = np.inf, np.inf  # the first iterate takes the gradients uncorrected
+    extra = 0  # field evaluations of the solves (``solve``)
+    # the first iterate takes the gains of the last step's first iterate (the run's first, none: the gradients
+    # uncorrected); the later iterates those of the first (the sizes of P and M change by O(h) over a step)
+    known = carry and work[WN_GAINS] > 0.0 and work[WN_GAINS + 1] > 0.0
+    gain_h = work[WN_GAINS] * abs(h) if known else np.inf
+    gain_s = work[WN_GAINS + 1] * abs(h) if known else np.inf
     H_y, S_y = np.nan, np.nan
     for iteration in range(1, max_iter + 1):
+        sized = iteration == 1  # the sizes of P and M for the gains: the step's first iterate's serve the rest
         H_y, S_y, noise, norm_p, norm_m = discrete_field_n(
-            kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, y, gain_h, gain_s, work
+            kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, y, gain_h, gain_s, work, sized
         )
         increment, size_f = 0.0, 0.0  # and norm_inf(F), NaN where F is not finite: one pass
         for i in range(n):
@@ -642,10 +704,13 @@ def _iterate(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, wo
             a = abs(F[i])
             size_f = a if a > size_f or a != a else size_f
         if not (np.isfinite(size_f) and np.isfinite(H_y) and np.isfinite(S_y)):
-            return NON_FINITE, H_y, S_y, iteration, iteration, np.inf, non_finite_culprit_n(model, y, hamiltonian)
-        gain_h, gain_s = gains(model, eps, h, vector(work, V_DGH, n), vector(work, V_DGS, n), norm_p, norm_m)
+            culprit = non_finite_culprit_n(model, y, hamiltonian)
+            return NON_FINITE, H_y, S_y, iteration, iteration + extra, np.inf, culprit
+        if sized:
+            gain_h, gain_s = gains(model, eps, h, vector(work, V_DGH, n), vector(work, V_DGS, n), norm_p, norm_m)
+            work[WN_GAINS], work[WN_GAINS + 1] = gain_h / abs(h), gain_s / abs(h)
         if newton:
-            solve(work, n, r)
+            extra += solve(model, eps, hamiltonian, work, n, r)
         error = 0.0  # norm_inf(r), as y moves by r
         for i in range(n):
             a = abs(r[i])
@@ -663,7 +728,7 @@ def _iterate(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, wo
         stalled = error >= 0.5 * best and (error <= floor or error <= SQRT_EPS * (norm_inf(x) + increment))
         if converged or stalled or error == 0.0:
             p = model.params
-            return OK, model.H(y, p), model.S(y, p), iteration, iteration + 1, rate, UNKNOWN
+            return OK, model.H(y, p), model.S(y, p), iteration, iteration + 1 + extra, rate, UNKNOWN
         if not newton and iteration >= 2 and previous > floor:  # a rate above the noise of the quotients
             measured += 1
             if measured == 1:  # the first ratio is a transient (a non-normal Jacobian's: s of the pendula)
@@ -672,18 +737,22 @@ def _iterate(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, wo
                 rate = (error / reference) ** (1.0 / (measured - 1))  # the mean rate since
                 if measured >= 3 and rate > give_up:
                     break
+                # at that rate, round-off is more iterations away than allowed: the same failure, sooner
+                far = iteration + np.log(4.0 * resolution / error) / np.log(rate) > max_iter
+                if measured >= 3 and 0.0 < rate < 1.0 and far:
+                    break
         best = min(best, error)
         previous = error
-    return NEWTON_FAILED, H_y, S_y, iteration, iteration, max(rate, previous), UNKNOWN
+    return NEWTON_FAILED, H_y, S_y, iteration, iteration + extra, max(rate, previous), UNKNOWN
 
 
 @inner
 def _residual_n(kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, work):
     """``R = y - x - h F(x, y)`` at the workspace's ``V_NEW`` into ``V_R``; returns ``|R|^2`` (inf where not
-    finite).  The gradients uncorrected, as an iteration's first iterate takes them."""
+    finite).  The gradients uncorrected (the damped attempt's residual, no gains at hand)."""
     n = x.shape[0]
     y, F, r = vector(work, V_NEW, n), vector(work, V_F, n), vector(work, V_R, n)
-    H_y, S_y = discrete_field_n(kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, y, np.inf, np.inf, work)[:2]
+    H_y, S_y = discrete_field_n(kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, y, np.inf, np.inf, work, False)[:2]
     for i in range(n):
         r[i] = (y[i] - x[i]) - h * F[i]
     size = dot(r, r)
@@ -720,12 +789,14 @@ def _homed_n(kind, max_iter, coeffs, model, eps, hamiltonian, x, comp, H_x, S_x,
             break
         for i in range(n):
             direction[i] = 0.5 * (x[i] + y[i])
+        if sparse(work):  # the last attempt takes dense Jacobians: the zero pattern is given up for the run
+            work[WN_SPARSE] = -1.0
         if not refresh(model, eps, hamiltonian, False, direction, h, work):
             return False, evaluations, refreshes
         evaluations += n + 1
         refreshes += 1
         copy_into(direction, r)
-        solve(work, n, direction)
+        solve(model, eps, hamiltonian, work, n, direction)
         copy_into(saved, y)
         damping = 1.0
         while True:
@@ -744,18 +815,20 @@ def _homed_n(kind, max_iter, coeffs, model, eps, hamiltonian, x, comp, H_x, S_x,
 
 @inner
 def _start(model, eps, hamiltonian, damped, x, h, work):
-    """A fresh Jacobian at ``x`` and the linearly implicit start ``y = x + A^-1 h xi(x)``; False where A is
-    singular (the start is then the explicit Euler step)."""
+    """A fresh Jacobian at ``x`` and the linearly implicit start ``y = x + A^-1 h xi(x)`` (the explicit Euler step
+    where A is singular); returns the field evaluations: n + 1 for a dense Jacobian, one per colour and one at x
+    with the zero pattern (``sparse_n``), and the solve's."""
     n = x.shape[0]
+    evaluations = refresh_evaluations(blocks_struct(work, n)) if sparse(work) else n + 1
     ok = refresh(model, eps, hamiltonian, damped, x, h, work)
     y, f0 = vector(work, V_NEW, n), vector(work, V_K1, n)
     for i in range(n):
         y[i] = h * f0[i]
     if ok:
-        solve(work, n, y)
+        evaluations += solve(model, eps, hamiltonian, work, n, y)
     for i in range(n):
         y[i] += x[i]
-    return ok
+    return evaluations
 
 
 @inner
@@ -765,15 +838,20 @@ def field_cost(model, n):
 
 
 @inner
-def newton_weight(model, n):
+def newton_weight(work, model, n):
     """The cost of a Newton iteration in fixed-point iterations: ``1 + 2 n^2 / c_f``, ``c_f`` the modelled cost
-    of the field (``field_cost``)."""
+    of the field (``field_cost``); with the Jacobian's zero pattern, the blocks' solve in place of ``2 n^2``."""
+    if sparse(work):
+        return solve_weight_blocks(blocks_struct(work, n), field_cost(model, n))
     return 1.0 + 2.0 * n * n / field_cost(model, n)
 
 
 @inner
-def refresh_cost(model, n):
-    """A refresh in field evaluations: n + 1 of them and the factorisation, ``2 n^3 / 3`` flops."""
+def refresh_cost(work, model, n):
+    """A refresh in field evaluations: n + 1 of them and the factorisation, ``2 n^3 / 3`` flops; with the
+    Jacobian's zero pattern, one per colour and the blocks' factorisation (``sparse_n.refresh_cost``)."""
+    if sparse(work):
+        return refresh_cost_blocks(blocks_struct(work, n), field_cost(model, n))
     return n + 1.0 + 2.0 * n * n * n / (3.0 * field_cost(model, n))
 
 
@@ -785,7 +863,7 @@ def newton_cost(work, n, model):
     measured = work[WN_NEWTON_ITERATIONS] > 0.0
     iterations = work[WN_NEWTON_ITERATIONS] if measured else NEWTON_ITERATIONS_ASSUMED
     refreshes = work[WN_REFRESHES] if measured else REFRESHES_ASSUMED
-    return iterations * newton_weight(model, n) + refreshes * refresh_cost(model, n)
+    return iterations * newton_weight(work, model, n) + refreshes * refresh_cost(work, model, n)
 
 
 @inner
@@ -807,7 +885,7 @@ def choose_solver(work, n, model, max_iter):
         return False, 0
     affordable = int(np.ceil(newton_cost(work, n, model)))
     if work[WN_NEWTON_ITERATIONS] == 0.0 and work[WN_FIXED_POINT_ITERATIONS] == 0.0:  # the first step
-        return n > FIRST_NEWTON_N, affordable
+        return n > FIRST_NEWTON_N and not sparse(work), affordable
     if work[WN_MODE] > 0.0 or (work[WN_PROBE] <= 0.0 and work[WN_HISTORY] > 0.0):
         return True, affordable
     return False, 0
@@ -842,6 +920,39 @@ def after_newton(work, iterations, refreshes, probed):
         work[WN_PROBE] -= 1.0
 
 
+@inner
+def probe_pattern(model, eps, hamiltonian, damped, x, work):
+    """The run's first step: whether its Newton matrix is taken from the Jacobian's zero pattern (``sparse_n``;
+    ``WN_SPARSE``), probed where it may pay: n above ``SPARSE_MIN_N`` with a dense Jacobian in the workspace,
+    Newton allowed, no damping (whose refresh differences two parts apart), P and M (where the field uses them)
+    given as actions.  Returns the evaluations."""
+    n = x.shape[0]
+    work[WN_SPARSE] = -1.0
+    if not (SPARSE_MIN_N < n <= DENSE_MAX_N and fits(n) and work[WN_SOLVER] != FIXED_POINT_ONLY):
+        return 0
+    if damped and eps != 0.0:
+        return 0
+    # an operator given as a matrix costs O(n^2) an evaluation, the probe then O(n^3): as a dense refresh
+    if hamiltonian and not model.actions & P_ACTION:
+        return 0
+    if eps != 0.0 and model.metric != PAPER_METRIC and not model.actions & M_ACTION:
+        return 0
+    found = probe(
+        model,
+        eps,
+        hamiltonian,
+        x,
+        blocks_struct(work, n),
+        blocks_factors(work, n),
+        vector(work, V_MID, n),
+        vector(work, V_K1, n),
+        vector(work, V_A, n),
+        vector(work, V_B, n),
+    )
+    work[WN_SPARSE] = 1.0 if found else -1.0
+    return n + 1
+
+
 @hot
 def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamiltonian, x, comp, H_x, S_x, h, work):
     """One step of the module docstring from ``x`` to the workspace's ``V_NEW``: a ``layout.StepResult`` whose
@@ -858,6 +969,8 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
     p = model.params
     y = vector(work, V_NEW, n)
     evaluations, iterations = 0, 0
+    if work[WN_SPARSE] == 0.0:
+        evaluations += probe_pattern(model, eps, hamiltonian, damped, x, work)
     history = work[WN_HISTORY] > 0.0 and work[WN_H] == h
     fixed_point, cap = choose_solver(work, n, model, max_iter)
     status, H_y, S_y, theta, culprit = NEWTON_FAILED, np.nan, np.nan, 0.0, UNKNOWN
@@ -872,7 +985,7 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
             axpy_into(y, h, field_into(vector(work, V_K1, n), model, eps_step, hamiltonian, x), x)
             evaluations += 1
         status, H_y, S_y, it, ev, theta, culprit = _iterate(
-            kind, max(cap, 2), coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, False, THETA_DIVERGE
+            kind, max(cap, 2), coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, False, THETA_DIVERGE, False
         )
         iterations += it
         evaluations += ev
@@ -881,21 +994,21 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
             after_fixed_point(work, n, model, status, it)
     if status != OK and n <= DENSE_MAX_N and work[WN_SOLVER] != FIXED_POINT_ONLY:
         newton_used = True
-        fresh = not (history and work[WN_FACTORED] > 0.0 and work[WN_LU_H] == h)
+        kept = history and work[WN_FACTORED] > 0.0 and work[WN_LU_H] == h
+        fresh = not kept or (sparse(work) and refresh_cost(work, model, n) <= FRESH_REFRESH_COST)
         newton_iterations, refreshes = 0, 0
         for attempt in range(2):
             if attempt == 1 and fresh:
                 break
             if fresh or attempt == 1:
-                _start(model, eps, hamiltonian, damped, x, h, work)
-                evaluations += n + 1
+                evaluations += _start(model, eps, hamiltonian, damped, x, h, work)
                 refreshes += 1
                 fresh = True
             else:
                 predict(work, n, y, x)
             eps_step = damped_eps(damped, eps, h, work)
             status, H_y, S_y, it, ev, theta, culprit = _iterate(
-                kind, max_iter, coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, True, np.inf
+                kind, max_iter, coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, True, np.inf, fresh
             )
             iterations += it
             newton_iterations += it
@@ -911,7 +1024,7 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
             refreshes += refreshed
             if found:
                 status, H_y, S_y, it, ev, theta, culprit = _iterate(
-                    kind, max_iter, coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, True, np.inf
+                    kind, max_iter, coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, True, np.inf, False
                 )
                 iterations += it
                 newton_iterations += it
@@ -927,9 +1040,11 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
     H_y, ev = to_level(model, y, H_y, H_x, True, d, before, EPS * terms_h)
     evaluations += ev
     against = -model.direction * np.sign(h)  # > 0: S moved against its direction
+    current = False  # S_y and terms_s taken at y as it is
     for _ in range(CORRECTION_ROUNDS):
         S_y = model.S(y, p)
         terms_s = term_scale_n(S_x, S_y, model.grad_S(y, p), y, model.origin[1])
+        current = True
         if eps == 0.0 and hamiltonian:  # no dissipation: S is a Casimir, kept like H
             if abs(S_y - S_x) <= EPS * terms_s:
                 break
@@ -938,8 +1053,10 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
         S_y, ev = to_level(model, y, S_y, S_x, False, d, before, 0.5 * EPS * terms_s)
         H_y, ev2 = to_level(model, y, model.H(y, p), H_x, True, d, before, EPS * terms_h)
         evaluations += ev + ev2 + 1
-    S_y = model.S(y, p)
-    terms_s = term_scale_n(S_x, S_y, model.grad_S(y, p), y, model.origin[1])
+        current = False
+    if not current:
+        S_y = model.S(y, p)
+        terms_s = term_scale_n(S_x, S_y, model.grad_S(y, p), y, model.origin[1])
     # a dissipative step must not move S against its direction beyond ACCEPT_S_ULPS; one without dissipation
     # keeps the Casimir S as it keeps H, to ACCEPT_ULPS either way (as the R^3 step)
     conserve_s = eps == 0.0 and hamiltonian

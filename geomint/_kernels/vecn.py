@@ -28,19 +28,61 @@ LAPACK_INT = F_INT_nptype
 
 @inner
 def dot(u, v):
-    s = 0.0
-    for i in range(u.shape[0]):
-        s += u[i] * v[i]
-    return s
+    """``u . v`` in four partial sums (``i mod 4``), added pairwise at the end: four independent chains of
+    additions the processor overlaps, where one waits on each addition (the rounding differs from a single
+    running sum's by a few ulps of the terms)."""
+    n = u.shape[0]
+    s0, s1, s2, s3 = 0.0, 0.0, 0.0, 0.0
+    i = 0
+    while i + 4 <= n:
+        s0 += u[i] * v[i]
+        s1 += u[i + 1] * v[i + 1]
+        s2 += u[i + 2] * v[i + 2]
+        s3 += u[i + 3] * v[i + 3]
+        i += 4
+    while i < n:
+        s0 += u[i] * v[i]
+        i += 1
+    return (s0 + s1) + (s2 + s3)
 
 
 @inner
 def abs_dot(u, v):
-    """``sum_i |u_i v_i|``: the size of the terms of ``u . v``."""
-    s = 0.0
-    for i in range(u.shape[0]):
-        s += abs(u[i] * v[i])
-    return s
+    """``sum_i |u_i v_i|``: the size of the terms of ``u . v`` (four partial sums, as ``dot``)."""
+    n = u.shape[0]
+    s0, s1, s2, s3 = 0.0, 0.0, 0.0, 0.0
+    i = 0
+    while i + 4 <= n:
+        s0 += abs(u[i] * v[i])
+        s1 += abs(u[i + 1] * v[i + 1])
+        s2 += abs(u[i + 2] * v[i + 2])
+        s3 += abs(u[i + 3] * v[i + 3])
+        i += 4
+    while i < n:
+        s0 += abs(u[i] * v[i])
+        i += 1
+    return (s0 + s1) + (s2 + s3)
+
+
+@inner
+def scaled_norm2(u, scale):
+    """``sum_i (scale u_i)^2`` in four partial sums (as ``dot``): with ``scale = 1 / |u|_inf``, ``|u|^2 /
+    |u|_inf^2`` without underflow or overflow."""
+    n = u.shape[0]
+    s0, s1, s2, s3 = 0.0, 0.0, 0.0, 0.0
+    i = 0
+    while i + 4 <= n:
+        a0, a1, a2, a3 = scale * u[i], scale * u[i + 1], scale * u[i + 2], scale * u[i + 3]
+        s0 += a0 * a0
+        s1 += a1 * a1
+        s2 += a2 * a2
+        s3 += a3 * a3
+        i += 4
+    while i < n:
+        a0 = scale * u[i]
+        s0 += a0 * a0
+        i += 1
+    return (s0 + s1) + (s2 + s3)
 
 
 @inner
@@ -95,10 +137,7 @@ def remove_scaled(u, e, dd):
     vectors (nothing where ``dd`` is 0): the same arithmetic as ``remove_along``'s, bit for bit."""
     if dd == 0.0:
         return u
-    ud = 0.0
-    for i in range(u.shape[0]):
-        ud += u[i] * e[i]
-    c = ud / dd
+    c = dot(u, e) / dd
     for i in range(u.shape[0]):
         u[i] -= c * e[i]
     return u
@@ -149,53 +188,53 @@ def matvec_into(out, m, v):
 
 
 @inner
-def lu_factor(a, pivots):
-    """Factor ``a`` (n, n) in place as ``P a = L U`` (partial pivoting); ``pivots`` (n floats) records the rows.
+def lu_factor(a, base, n, pivots, first):
+    """Factor the (n, n) matrix stored row by row at ``a[base:base + n * n]`` in place as ``P a = L U`` (partial
+    pivoting); ``pivots[first:first + n]`` (floats) records the rows.  (Flat storage: one routine serves a dense
+    matrix, ``base = 0``, and the packed blocks of ``sparse_n``, without a view per block.)
 
     Returns False where a pivot is zero or not finite (the matrix is singular to working precision).
     """
-    n = a.shape[0]
     for k in range(n):
         p = k
-        big = abs(a[k, k])
+        big = abs(a[base + k * n + k])
         for i in range(k + 1, n):
-            if abs(a[i, k]) > big:
-                big = abs(a[i, k])
+            if abs(a[base + i * n + k]) > big:
+                big = abs(a[base + i * n + k])
                 p = i
-        pivots[k] = p
+        pivots[first + k] = p
         if not (big > 0.0 and np.isfinite(big)):
             return False
         if p != k:
             for j in range(n):
-                a[k, j], a[p, j] = a[p, j], a[k, j]
-        inverse = 1.0 / a[k, k]
+                a[base + k * n + j], a[base + p * n + j] = a[base + p * n + j], a[base + k * n + j]
+        inverse = 1.0 / a[base + k * n + k]
         for i in range(k + 1, n):
-            a[i, k] *= inverse
-            f = a[i, k]
+            a[base + i * n + k] *= inverse
+            f = a[base + i * n + k]
             if f != 0.0:
                 for j in range(k + 1, n):
-                    a[i, j] -= f * a[k, j]
+                    a[base + i * n + j] -= f * a[base + k * n + j]
     return True
 
 
 @inner
-def lu_solve(lu, pivots, b):
-    """Solve ``a x = b`` in place (``b`` becomes x) from ``lu_factor``'s factors."""
-    n = lu.shape[0]
+def lu_solve(lu, base, n, pivots, first, b):
+    """Solve ``a x = b[:n]`` in place (``b`` becomes x) from ``lu_factor``'s factors at ``base``, ``first``."""
     for k in range(n):
-        p = int(pivots[k])
+        p = int(pivots[first + k])
         if p != k:
             b[k], b[p] = b[p], b[k]
     for i in range(n):
         s = b[i]
         for j in range(i):
-            s -= lu[i, j] * b[j]
+            s -= lu[base + i * n + j] * b[j]
         b[i] = s
     for i in range(n - 1, -1, -1):
         s = b[i]
         for j in range(i + 1, n):
-            s -= lu[i, j] * b[j]
-        b[i] = s / lu[i, i]
+            s -= lu[base + i * n + j] * b[j]
+        b[i] = s / lu[base + i * n + i]
     return b
 
 
