@@ -773,8 +773,12 @@ Reading these tables (the run this page was written from):
   never against its direction), on geomint's trajectory (final states within 3·10⁻¹¹) and as close to the step's
   root as geomint's solvers within that measure's noise. This page was regenerated on a new machine
   (2026-11-26, the fourth session of issue 30), where the hand-written floors run faster relative to geomint
-  than on the machine of the earlier figures: the gas containers' floor takes 2.2 µs a step here, 3.2 there,
-  for the same geomint step (5.7 and 5.6 µs, 7.0–7.2 iterations): 2.6 × here, 1.7 × there. Earlier in the
+  than on the machine of the earlier figures: the gas containers' floor takes 2.2 µs a step here, 3.2 there.
+  geomint's gas step now takes 9.6 iterations where it took 7.0: a step's first iterate carries the last
+  step's gains (Gonzalez's correction in its field), which the pendula need (below) and which, from the
+  extrapolated start, cost the gas containers ~3 iterations (3.2 × here; 1.7 × on the earlier machine before
+  the change). Carried only from the linearly implicit start, the gas containers kept 7.2 iterations (2.6 ×)
+  but the bundled gas scene failed a step near its equilibrium: not resolved in this session. Earlier in the
   history of these ratios: before the step loop stopped counting references to its arrays (docs/engine_speed.md,
   reading) they were 4.5, 5.5, 7.3 and 4.6; before the catalogue's Euler and random Fish P were written at the
   cost of their structure (below), 1.9, 3.2, 6.7 and 4.2; the pendula were at 3.7–4.5 × until this session.

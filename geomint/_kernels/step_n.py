@@ -674,7 +674,7 @@ def remember_n(work, n, y, x, h):
 
 # -- the solvers -------------------------------------------------------------------------------------------------
 @inner
-def _iterate(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, work, newton, give_up, carry):
+def _iterate(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, work, newton, give_up):
     """Iterate from the workspace's ``V_NEW`` (the start): simplified Newton with the kept factors where
     ``newton``, else the fixed point ``y <- x + h F(x, y)`` (the same iteration with A = I).  Returns
     ``(status, H(y), S(y), iterations, evaluations, rate, culprit)``: ``rate`` is the first contraction rate
@@ -688,7 +688,7 @@ def _iterate(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, wo
     extra = 0  # field evaluations of the solves (``solve``)
     # the first iterate takes the gains of the last step's first iterate (the run's first, none: the gradients
     # uncorrected); the later iterates those of the first (the sizes of P and M change by O(h) over a step)
-    known = carry and work[WN_GAINS] > 0.0 and work[WN_GAINS + 1] > 0.0
+    known = work[WN_GAINS] > 0.0 and work[WN_GAINS + 1] > 0.0
     gain_h = work[WN_GAINS] * abs(h) if known else np.inf
     gain_s = work[WN_GAINS + 1] * abs(h) if known else np.inf
     H_y, S_y = np.nan, np.nan
@@ -985,7 +985,7 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
             axpy_into(y, h, field_into(vector(work, V_K1, n), model, eps_step, hamiltonian, x), x)
             evaluations += 1
         status, H_y, S_y, it, ev, theta, culprit = _iterate(
-            kind, max(cap, 2), coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, False, THETA_DIVERGE, False
+            kind, max(cap, 2), coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, False, THETA_DIVERGE
         )
         iterations += it
         evaluations += ev
@@ -1008,7 +1008,7 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
                 predict(work, n, y, x)
             eps_step = damped_eps(damped, eps, h, work)
             status, H_y, S_y, it, ev, theta, culprit = _iterate(
-                kind, max_iter, coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, True, np.inf, fresh
+                kind, max_iter, coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, True, np.inf
             )
             iterations += it
             newton_iterations += it
@@ -1024,7 +1024,7 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
             refreshes += refreshed
             if found:
                 status, H_y, S_y, it, ev, theta, culprit = _iterate(
-                    kind, max_iter, coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, True, np.inf, False
+                    kind, max_iter, coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, True, np.inf
                 )
                 iterations += it
                 newton_iterations += it
