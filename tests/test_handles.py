@@ -79,6 +79,42 @@ def test_the_key_follows_the_source_file_and_the_compile_options():
         del globals()["_H_fast"]
 
 
+SCALE = 0.5
+WEIGHTS = np.array([0.5, 1.0, 1.5])
+
+
+@numba.njit
+def _weighted(x, i):
+    return WEIGHTS[i] * x[i] ** 2
+
+
+@numba.njit
+def _H_scaled(x, p):
+    return SCALE * (_weighted(x, 0) + _weighted(x, 1) + _weighted(x, 2))
+
+
+def test_the_key_follows_the_globals_numba_freezes_in():
+    """numba compiles a global number or array into the code as a constant: a script that sets one (a size read
+    from its command line) must not be served kernels cached for another value.  The key follows the globals the
+    function reads and those of the numba functions it calls; other globals (modules, functions) do not move it."""
+    global SCALE, WEIGHTS
+    key = handles.inline_key(_H_scaled)
+    assert key is not None
+    try:
+        SCALE = 0.25
+        scaled = handles.inline_key(_H_scaled)
+        assert scaled is not None and scaled[:2] == key[:2] and scaled[2] != key[2]
+        SCALE = 0.5
+        assert handles.inline_key(_H_scaled) == key
+        WEIGHTS = np.array([0.5, 1.0, 2.0])  # read by the helper it calls
+        weighted = handles.inline_key(_H_scaled)
+        assert weighted is not None and weighted[2] not in (key[2], scaled[2])
+    finally:
+        SCALE, WEIGHTS = 0.5, np.array([0.5, 1.0, 1.5])
+    assert handles.inline_key(_H_scaled) == key
+    assert handles.inline_key(_H)[2].split(".")[0] == key[2].split(".")[0]  # the same file
+
+
 def test_the_model_of_every_other_kernel_is_first_class():
     model = _body().model
     assert all(isinstance(fn, CompileResultWAP) for fn in (model.H, model.grad_H, model.S, model.grad_S, model.J))

@@ -30,10 +30,14 @@ on disk.
   a kernel specialised to such a function would be keyed by nothing stable.
 
 The digest covers the function's whole source file, so editing the file (the
-function or a helper beside it) compiles the kernels again.  As with numba's
-own cache, a change in *another* file the function calls, or in a global
-array it reads, is not seen: clear the cache (``geomint._cache``) after such
-a change.  ``GEOMINT_INLINE=0`` in the environment hands every function over
+function or a helper beside it) compiles the kernels again, and the values of
+the globals the function reads (and the numba functions it calls read),
+which numba freezes into the compiled code as constants: numbers, strings,
+tuples of them and arrays.  A script that reads a size from its command line
+into a global gets kernels of that size, not those cached for the last one
+(numba's own cache keys by the file alone, and would serve them).  A change
+in *another* file the function calls is not seen: clear the cache
+(``geomint._cache``) after such a change.  ``GEOMINT_INLINE=0`` in the environment hands every function over
 first-class (one compilation per form, e.g. for many throw-away systems).
 
 Pickling: numba stores the argument types of each cached compilation in an
@@ -54,6 +58,7 @@ import warnings
 from typing import Any
 
 import numba
+import numpy as np
 from numba.core import types
 from numba.core.datamodel.models import OpaqueModel
 from numba.core.dispatcher import Dispatcher
@@ -150,14 +155,56 @@ def _file_digest(path: str) -> str | None:
     return _FILES[path]
 
 
+#: the global values numba freezes into compiled code as constants (``_frozen_globals``)
+_CONSTANTS = (bool, int, float, complex, str, bytes, type(None), np.generic)
+
+
+def _constant_digest(value: Any) -> bytes | None:
+    """The bytes that fix ``value`` as numba freezes it, None for what it does not freeze (modules, functions)."""
+    if isinstance(value, _CONSTANTS):
+        return f"{type(value).__name__}:{value!r}".encode()
+    if isinstance(value, np.ndarray):
+        return f"{value.dtype.str}{value.shape}".encode() + np.ascontiguousarray(value).tobytes()
+    if isinstance(value, tuple):
+        parts = [_constant_digest(v) for v in value]
+        return None if any(p is None for p in parts) else b"(" + b",".join(parts) + b")"  # pyright: ignore[reportCallIssue, reportArgumentType]
+    return None
+
+
+def _names(code: Any) -> set[str]:
+    """The global names a code object and the code objects nested in it read."""
+    names = set(code.co_names)
+    for const in code.co_consts:
+        if inspect.iscode(const):
+            names |= _names(const)
+    return names
+
+
+def _frozen_globals(py_func: Any, seen: set[int] | None = None) -> str:
+    """A digest of the values of the globals ``py_func`` reads that numba compiles in as constants, and of
+    those the numba functions it calls read (followed once each)."""
+    seen = set() if seen is None else seen
+    seen.add(id(py_func))
+    digest = hashlib.sha1()
+    for name in sorted(_names(py_func.__code__)):
+        value = py_func.__globals__.get(name)
+        frozen = _constant_digest(value)
+        if frozen is not None:
+            digest.update(name.encode() + b"=" + frozen + b";")
+        elif isinstance(value, Dispatcher) and id(value.py_func) not in seen:
+            digest.update(f"{name}->{_frozen_globals(value.py_func, seen)};".encode())
+    return digest.hexdigest()[:16]
+
+
 def enabled() -> bool:
     """False where ``GEOMINT_INLINE=0`` is set: every function is then handed over first-class."""
     return os.environ.get("GEOMINT_INLINE", "1") != "0"
 
 
 def inline_key(fn: Any) -> tuple[str, ...] | None:
-    """``(module, qualname, digest of the source file, digest of the compile options)`` of a module-level numba
-    function found again under its module and name, else None (see the module docstring)."""
+    """``(module, qualname, digest of the source file and of the globals frozen in, digest of the compile
+    options)`` of a module-level numba function found again under its module and name, else None (see the module
+    docstring)."""
     if not enabled() or not isinstance(fn, Dispatcher):
         return None
     py_func = fn.py_func
@@ -176,6 +223,7 @@ def inline_key(fn: Any) -> tuple[str, ...] | None:
     digest = _file_digest(source) if source else None
     if digest is None:
         return None
+    digest = f"{digest}.{_frozen_globals(py_func)}"
     options = repr(sorted(fn.targetoptions.items()))  # fastmath, error_model ... change the compiled code
     return (module, qualname, digest, hashlib.sha1(options.encode()).hexdigest()[:8])
 
