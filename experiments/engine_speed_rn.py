@@ -771,17 +771,22 @@ Reading these tables (the run this page was written from):
 
 - **Each floor is a floor**: exact at every step of its run (no step failing, |ΔH| within 2.4 ulps of its terms, S
   never against its direction), on geomint's trajectory (final states within 3·10⁻¹¹) and as close to the step's
-  root as geomint's solvers within that measure's noise. This page was regenerated on a new machine
-  (2026-11-26, the fourth session of issue 30), where the hand-written floors run faster relative to geomint
-  than on the machine of the earlier figures: the gas containers' floor takes 2.2 µs a step here, 3.2 there.
-  geomint's gas step now takes 9.6 iterations where it took 7.0: a step's first iterate carries the last
-  step's gains (Gonzalez's correction in its field), which the pendula need (below) and which, from the
-  extrapolated start, cost the gas containers ~3 iterations (3.2 × here; 1.7 × on the earlier machine before
-  the change). Carried only from the linearly implicit start, the gas containers kept 7.2 iterations (2.6 ×)
-  but the bundled gas scene failed a step near its equilibrium: not resolved in this session. Earlier in the
-  history of these ratios: before the step loop stopped counting references to its arrays (docs/engine_speed.md,
-  reading) they were 4.5, 5.5, 7.3 and 4.6; before the catalogue's Euler and random Fish P were written at the
-  cost of their structure (below), 1.9, 3.2, 6.7 and 4.2; the pendula were at 3.7–4.5 × until this session.
+  root as geomint's solvers within that measure's noise. This page was regenerated on the machine of the
+  session before (2026-11-26, the fifth session of issue 30), where the hand-written floors run faster relative
+  to geomint than on the machine of the earlier figures (the gas containers' floor 2.2 µs a step here, 3.2
+  there). The gas containers: 3.2 → 2.2 × in this session. Their Newton now takes a fresh Jacobian at every
+  step with the linearly implicit start, as their floor does (a dense refresh of at most 6 field evaluations,
+  n ≤ 4: 3.7 iterations a step, against 7.1 with kept factors and the extrapolated start), and the first
+  iterate carries the last step's gains only from that start (from the extrapolated start they cost ~3
+  iterations). Carrying them only there had made the bundled gas scene fail a step near its equilibrium in
+  the session before: the cause was the level correction (its scalar Newton ended in the round-off of E and
+  missed by a few ulps; it now brackets and bisects, docs/engine_rn.md), not the gains. What is left is the
+  field: geomint's 0.76 µs at n = 4 against the floor's 0.23 (the user's functions 0.15–0.19 of it; the
+  discrete gradient of H alone 0.15), and the refresh's five evaluations of ξ through the user's matrix
+  functions. Earlier in the history of these ratios: before the step loop stopped counting references to
+  its arrays (docs/engine_speed.md, reading) they were 4.5, 5.5, 7.3 and 4.6; before the catalogue's Euler and
+  random Fish P were written at the cost of their structure (below), 1.9, 3.2, 6.7 and 4.2; the pendula were
+  at 3.7–4.5 × until the session before.
   The figures in the bullets below are from earlier runs where they differ from the tables above.
 - **The pendula at the floor's iterations (3.7 a step).** The floor forms the pendula's Newton matrix from the
   zero pattern of L and M at every step (each pendulum's 2 × 2 block and the s row, O(n)). geomint now probes

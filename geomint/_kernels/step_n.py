@@ -28,8 +28,9 @@ contracts (``choose_solver``; docs/engine_rn.md, "Solving the step"):
   O(n^2) per iteration, O(n^3) per refresh;
 * above ``SPARSE_MIN_N``, the same Newton with ``D xi`` differenced and factored by its zero pattern where the
   pattern pays (``sparse_n``: probed once a run, coloured, block by block, a dense row whose coordinate feeds
-  nothing back solved exactly by one directional difference a solve), taken fresh at every step where a
-  refresh costs less than ``FRESH_REFRESH_COST`` field evaluations;
+  nothing back solved exactly by one directional difference a solve);
+* either Jacobian taken fresh at every step where a refresh costs at most ``FRESH_REFRESH_COST`` field
+  evaluations (a few coordinates, or a cheap pattern);
 * the fixed-point iteration ``x' <- x + h F(x, x')``, no Jacobian: O(cost of
   the field) per iteration, converging linearly at the rate ``~ (h/2) |D xi|``:
   kept while its iterations cost less than Newton's (its rate makes its count:
@@ -138,6 +139,11 @@ PARALLEL = 1e-4
 REST = SQRT_EPS
 
 
+#: the evaluations a level correction spends bracketing and bisecting the level where scalar Newton ends outside
+#: its tolerance (``to_level``)
+LEVEL_SEARCH = 16
+
+
 #: rounds of the level corrections (each a few scalar Newton steps)
 CORRECTION_ROUNDS = 3
 
@@ -171,9 +177,10 @@ FIRST_NEWTON_N = 64
 SPARSE_MIN_N = 64
 
 
-#: with the zero pattern, a refresh that costs at most this many field evaluations is taken at every Newton step,
-#: with the linearly implicit start (fewer iterations than the extrapolated start on the pendula)
-FRESH_REFRESH_COST = 4.0
+#: a refresh that costs at most this many field evaluations (``refresh_cost``: with the zero pattern, or dense for
+#: n <= 4) is taken at every Newton step, with the linearly implicit start (fewer iterations than kept factors and
+#: the extrapolated start: the pendula, the gas containers 3.7 against 7.1)
+FRESH_REFRESH_COST = 6.0
 
 
 #: Newton iterations per step, and refreshes per Newton step, assumed before any are measured: one refresh per
@@ -275,11 +282,17 @@ def lu_matrix(work, n):
 
 
 @inner
+def lu_flat(work, n):
+    """The LU factors' n^2 floats as one vector (``vecn.lu_factor``'s layout; ``lu_matrix`` as a matrix)."""
+    start = WN_HEADER + N_VECTORS * n + n * n
+    return work[start : start + n * n]
+
+
+@inner
 def blocks_struct(work, n):
     """Where the workspace uses the Jacobian's zero pattern (``WN_SPARSE`` 1): ``sparse_n``'s struct, in the LU
     factors' n^2 floats."""
-    start = WN_HEADER + N_VECTORS * n + n * n
-    return work[start : start + n * n]
+    return lu_flat(work, n)
 
 
 @inner
@@ -503,17 +516,26 @@ def gains(model, eps, h, dgh, dgs, norm_p, norm_m):
 # -- the level corrections ---------------------------------------------------------------------------------------
 @inner
 def to_level(model, y, value, target, energy, d, before, tolerance):
-    """Move ``y`` (in place) towards ``F(y) = target`` within ``tolerance`` (scalar Newton, at most 3 steps)
-    along ``d = Pi_G grad F(y)``: F = H and G = S where ``energy`` (S unchanged to first order), else F = S and
-    G = H.  Where grad F and grad G are nearly parallel (an equilibrium: ``|Pi_G grad F|^2 < PARALLEL
-    |grad F|^2``) that direction is ill-conditioned and ``d = grad F``, whose move, of the size of the level's
-    round-off, changes G by round-off too.  A move that does not bring F closer to the target is undone.
+    """Move ``y`` (in place) towards ``F(y) = target`` within ``tolerance``: F = H and G = S where ``energy``
+    (S unchanged to first order), else F = S and G = H.  Along ``d = Pi_G grad F(y)``, or ``d = grad F`` where
+    the two gradients are nearly parallel (an equilibrium: ``|Pi_G grad F|^2 < PARALLEL |grad F|^2``), where
+    that direction is ill-conditioned and a move of the size of the level's round-off changes G by round-off
+    too.
+
+    Scalar Newton, at most 3 steps, each kept only where it brings F closer to the target.  Its moves end in
+    the round-off of F's evaluation, which for a sum of many terms spans several ulps of them and is not smooth
+    on that scale (a sum's terms are rounded into its partial sums), wider than ``tolerance``: a step then
+    lands anywhere in that noise.  Where Newton stops outside ``tolerance``, the level is bracketed along
+    ``d`` (the predicted root, then twice as far, ...) and bisected, at most ``LEVEL_SEARCH`` evaluations, until
+    F reads within ``tolerance`` of the target; the closest reading is kept.  Each point tried is within the
+    level's round-off of the root.
     ``d`` and ``before`` are scratch vectors.  Returns ``(F(y), evaluations)``."""
     p = model.params
     evaluations = 0
+    slope = 0.0
     for _ in range(3):
         if abs(value - target) <= tolerance:
-            break
+            return value, evaluations
         g = model.grad_H(y, p) if energy else model.grad_S(y, p)
         o = model.grad_S(y, p) if energy else model.grad_H(y, p)
         remove_along(copy_into(d, g), o)
@@ -522,7 +544,7 @@ def to_level(model, y, value, target, energy, d, before, tolerance):
             copy_into(d, g)
             slope = full
         if not (slope > 0.0) or not np.isfinite(slope):
-            break
+            return value, evaluations
         lam = (target - value) / slope
         copy_into(before, y)
         for i in range(y.shape[0]):
@@ -533,7 +555,39 @@ def to_level(model, y, value, target, energy, d, before, tolerance):
             copy_into(y, before)
             break
         value = moved
-    return value, evaluations
+    if abs(value - target) <= tolerance or not tolerance > 0.0 or not slope > 0.0:
+        return value, evaluations
+    # bracket the level along d from y (lam = 0) and bisect
+    copy_into(before, y)
+    best, best_lam = value, 0.0
+    lo, f_lo = 0.0, value - target
+    reach = (target - value) / slope
+    hi, bracketed = reach, False
+    for _ in range(LEVEL_SEARCH):
+        lam = 0.5 * (lo + hi) if bracketed else hi
+        if bracketed and (lam == lo or lam == hi):  # bisected to the spacing of lam
+            break
+        for i in range(y.shape[0]):
+            y[i] = before[i] + lam * d[i]
+        moved = model.H(y, p) if energy else model.S(y, p)
+        evaluations += 1
+        f = moved - target
+        if abs(f) < abs(best - target):
+            best, best_lam = moved, lam
+            if abs(f) <= tolerance:
+                break
+        if not np.isfinite(f):
+            break
+        if (f > 0.0) == (f_lo > 0.0):  # the same side as lo: the level lies beyond
+            lo, f_lo = lam, f
+            if not bracketed:
+                reach *= 2.0
+                hi = lo + reach
+        else:
+            hi, bracketed = lam, True
+    for i in range(y.shape[0]):
+        y[i] = before[i] + best_lam * d[i]
+    return best, evaluations
 
 
 # -- the Jacobian, the damping and the predictor -----------------------------------------------------------------
@@ -601,7 +655,7 @@ def factor(work, n, h):
         ok = lapack_factor(lu, lapack_pivots(work, n))
         work[WN_LAPACK] = 1.0
     else:
-        ok = lu_factor(blocks_struct(work, n), 0, n, vector(work, V_PIVOTS, n), 0)
+        ok = lu_factor(lu_flat(work, n), 0, n, vector(work, V_PIVOTS, n), 0)
         work[WN_LAPACK] = 0.0
     work[WN_FACTORED] = 1.0 if ok else 0.0
     work[WN_LU_H] = h
@@ -629,7 +683,7 @@ def solve(model, eps, hamiltonian, work, n, b):
     if work[WN_LAPACK] > 0.0:
         lapack_solve(lu_matrix(work, n), lapack_pivots(work, n), b)
     else:
-        lu_solve(blocks_struct(work, n), 0, n, vector(work, V_PIVOTS, n), 0, b)
+        lu_solve(lu_flat(work, n), 0, n, vector(work, V_PIVOTS, n), 0, b)
     return 0
 
 
@@ -674,21 +728,23 @@ def remember_n(work, n, y, x, h):
 
 # -- the solvers -------------------------------------------------------------------------------------------------
 @inner
-def _iterate(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, work, newton, give_up):
+def _iterate(kind, max_iter, coeffs, model, eps, hamiltonian, x, H_x, S_x, h, work, newton, give_up, carry):
     """Iterate from the workspace's ``V_NEW`` (the start): simplified Newton with the kept factors where
     ``newton``, else the fixed point ``y <- x + h F(x, y)`` (the same iteration with A = I).  Returns
     ``(status, H(y), S(y), iterations, evaluations, rate, culprit)``: ``rate`` is the first contraction rate
     measured above round-off (Newton: how stale the factors are), or the geometric mean of the rates measured
     above the floor of round-off but the first (fixed point: how fast it converges; the first ratio can be a
     transient growth, where the Jacobian is far from normal).  A fixed point whose mean rate exceeds ``give_up``
-    over two ratios or more stops (``NEWTON_FAILED``): another solver will do better."""
+    over two ratios or more stops (``NEWTON_FAILED``): another solver will do better.  ``carry``: the first
+    iterate takes the last step's gains (below)."""
     n = x.shape[0]
     y, F, r = vector(work, V_NEW, n), vector(work, V_F, n), vector(work, V_R, n)
     previous, best, rate, measured, reference = np.inf, np.inf, 0.0, 0, np.inf
     extra = 0  # field evaluations of the solves (``solve``)
-    # the first iterate takes the gains of the last step's first iterate (the run's first, none: the gradients
-    # uncorrected); the later iterates those of the first (the sizes of P and M change by O(h) over a step)
-    known = work[WN_GAINS] > 0.0 and work[WN_GAINS + 1] > 0.0
+    # the first iterate takes the gains of the last step's first iterate where ``carry`` (the linearly implicit
+    # start; else, and in the run's first step, none: the gradients uncorrected, which serve an extrapolated start
+    # better); the later iterates those of the first (the sizes of P and M change by O(h) over a step)
+    known = carry and work[WN_GAINS] > 0.0 and work[WN_GAINS + 1] > 0.0
     gain_h = work[WN_GAINS] * abs(h) if known else np.inf
     gain_s = work[WN_GAINS + 1] * abs(h) if known else np.inf
     H_y, S_y = np.nan, np.nan
@@ -985,7 +1041,7 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
             axpy_into(y, h, field_into(vector(work, V_K1, n), model, eps_step, hamiltonian, x), x)
             evaluations += 1
         status, H_y, S_y, it, ev, theta, culprit = _iterate(
-            kind, max(cap, 2), coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, False, THETA_DIVERGE
+            kind, max(cap, 2), coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, False, THETA_DIVERGE, False
         )
         iterations += it
         evaluations += ev
@@ -995,7 +1051,7 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
     if status != OK and n <= DENSE_MAX_N and work[WN_SOLVER] != FIXED_POINT_ONLY:
         newton_used = True
         kept = history and work[WN_FACTORED] > 0.0 and work[WN_LU_H] == h
-        fresh = not kept or (sparse(work) and refresh_cost(work, model, n) <= FRESH_REFRESH_COST)
+        fresh = not kept or refresh_cost(work, model, n) <= FRESH_REFRESH_COST
         newton_iterations, refreshes = 0, 0
         for attempt in range(2):
             if attempt == 1 and fresh:
@@ -1008,7 +1064,7 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
                 predict(work, n, y, x)
             eps_step = damped_eps(damped, eps, h, work)
             status, H_y, S_y, it, ev, theta, culprit = _iterate(
-                kind, max_iter, coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, True, np.inf
+                kind, max_iter, coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, True, np.inf, fresh
             )
             iterations += it
             newton_iterations += it
@@ -1024,7 +1080,7 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
             refreshes += refreshed
             if found:
                 status, H_y, S_y, it, ev, theta, culprit = _iterate(
-                    kind, max_iter, coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, True, np.inf
+                    kind, max_iter, coeffs, model, eps_step, hamiltonian, x, H_x, S_x, h, work, True, np.inf, False
                 )
                 iterations += it
                 newton_iterations += it
