@@ -166,8 +166,8 @@ def _constant_digest(value: Any) -> bytes | None:
     if isinstance(value, np.ndarray):
         return f"{value.dtype.str}{value.shape}".encode() + np.ascontiguousarray(value).tobytes()
     if isinstance(value, tuple):
-        parts = [_constant_digest(v) for v in value]
-        return None if any(p is None for p in parts) else b"(" + b",".join(parts) + b")"  # pyright: ignore[reportCallIssue, reportArgumentType]
+        parts = [part for part in map(_constant_digest, value) if part is not None]
+        return b"(" + b",".join(parts) + b")" if len(parts) == len(value) else None
     return None
 
 
@@ -186,8 +186,9 @@ def _frozen_globals(py_func: Any, seen: set[int] | None = None) -> str:
     seen = set() if seen is None else seen
     seen.add(id(py_func))
     digest = hashlib.sha1()
-    for name in sorted(_names(py_func.__code__)):
-        value = py_func.__globals__.get(name)
+    # co_names also lists attribute names (x.shape) and builtins (range): only the module's globals are frozen in
+    for name in sorted(_names(py_func.__code__) & py_func.__globals__.keys()):
+        value = py_func.__globals__[name]
         frozen = _constant_digest(value)
         if frozen is not None:
             digest.update(name.encode() + b"=" + frozen + b";")
