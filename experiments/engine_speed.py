@@ -347,6 +347,15 @@ def report_solves(solves, repeats):
 READING = """
 ## Reading
 
+**This run (2026-11-26, late) misses two lines that the page's run before held.** Gonzalez moving 2.11 × the exact
+floor (1.81 before) and `solve_ensemble` 2.32 × the prange floor (1.97), on a machine slower than that run's for
+everything (scipy's DOP853 solve 15.6 s against 8.6; the floors 2-9 % slower, geomint's Gonzalez, Yoshida4 and
+ensemble steps 20-26 % slower, its RK4 1 %). It
+is the machine, not the code: the previous commit (e81c8ea, before R^n systems went first-class and before the
+R^n field's helpers were inlined; no R^3 kernel differs but for one more failure code in the loop's retry test)
+gave 2.19 and 2.29 in the same hour. On this machine the two lines are not met; what makes geomint's larger step
+lose more than the floor on a slower machine is not measured yet.
+
 **What inlining changed.** Until 2026-11-25 every kernel reached the user's functions as first-class functions,
 calls numba cannot inline. The step loop now takes them inlined where they can be found again by name
 (`geomint/model/handles.py`, docs/design.md section 5), compiled for the system and cached on disk. The same harness

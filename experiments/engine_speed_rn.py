@@ -152,10 +152,11 @@ def pendula_floor(x0, gamma, h, steps):
 
 
 # -- the engine with a forced solver ----------------------------------------------------------------------------
-def engine_run(system, x0, h, steps, solver, every_state=False, method=None):
+def engine_run(system, x0, h, steps, solver, every_state=False, method=None, inlined=False):
     """``steps`` fixed steps of the engine (Gonzalez) from ``x0`` with ``solver`` (``step_n.WN_SOLVER``), final
     state only: ``(state, counters, workspace)`` (``every_state``: the states of every step, (steps + 1, n), in
-    place of the final one)."""
+    place of the final one).  The user's functions first-class, as ``solve`` hands them to R^n kernels, or with
+    ``inlined`` as it does under ``GEOMINT_INLINE=all`` (``geomint.model.handles.enabled``)."""
     data = (method or geomint.Gonzalez()).lower(system)
     t_end = steps * h
     grid, n_steps = constant_grid(0.0, t_end, h, 1 if every_state else None)
@@ -163,7 +164,13 @@ def engine_run(system, x0, h, steps, solver, every_state=False, method=None):
     work, state = new_run_state(data, np.asarray(x0, dtype=float), True)
     work[step_n.WN_SOLVER] = solver
     clock = layout.new_clock(0.0)
+    setting = os.environ.get("GEOMINT_INLINE")
+    os.environ["GEOMINT_INLINE"] = "all" if inlined else "1"
     model, eps, ham = system.inlined_model, system.eps, system.hamiltonian  # as solve runs it
+    if setting is None:
+        del os.environ["GEOMINT_INLINE"]
+    else:
+        os.environ["GEOMINT_INLINE"] = setting
     loop.run(model, eps, ham, data, grid, state, work, clock, np.array([t_end]), n_steps, out)
     if every_state:
         return out.x[: out.counters[layout.ROWS]].copy(), out.counters, work
@@ -491,6 +498,7 @@ def _against_floors(repeats):
         runs = {
             name: (lambda solver=solver: engine_run(system, x0, h, steps, solver)) for name, solver in SOLVERS.items()
         }
+        runs["inlined"] = lambda: engine_run(system, x0, h, steps, step_n.AUTO, inlined=True)
         runs["floor"] = lambda: floor.run(x0, h, steps)
         for run in runs.values():
             run()
@@ -503,7 +511,7 @@ def _against_floors(repeats):
         row = {name: {"ns": 1e9 * statistics.median(v) / steps} for name, v in samples.items()}
         result = floor.run(x0, h, steps)
         apart = 0.0
-        for name in SOLVERS:
+        for name in (*SOLVERS, "inlined"):
             state, counters, work = runs[name]()
             assert counters[layout.STATUS] == 0, (label, name, counters)
             row[name]["its"] = counters[layout.NEWTON_ITERATIONS] / counters[layout.STEPS]
@@ -524,7 +532,10 @@ def against_floors(repeats, processes):
     for _ in range(processes):
         with context.Pool(1) as pool:
             samples.append(pool.apply(_against_floors, (repeats,)))
-        print("floors", {k: {m: f"{v[2][m]['ns']:.0f}" for m in ("auto", "floor")} for k, v in samples[-1].items()})
+        print(
+            "floors",
+            {k: {m: f"{v[2][m]['ns']:.0f}" for m in ("auto", "inlined", "floor")} for k, v in samples[-1].items()},
+        )
     return samples
 
 
@@ -615,22 +626,27 @@ def floors_report(samples, repeats, residuals):
         "terms of H(x₀), S not against its direction by more than 2 ulps). Same start, same h, in the same "
         f"process as geomint's runs, interleaved ({repeats} repeats, medians), in {len(samples)} fresh processes; "
         "ns per step the median over the processes. Iterations per step in brackets (geomint: the solver the "
-        "automatic choice ended in).",
+        "automatic choice ended in). geomint auto: the user's functions first-class, as `solve` hands them to "
+        "R^n kernels by default; inlined: the same run with them inlined into kernels compiled for the system, "
+        "as under `GEOMINT_INLINE=all` (a new system's first solve then compiles for about a minute: "
+        "[start-up](startup.md)).",
         "",
         "| n | system | steps | geomint auto ns/step | floor ns/step | auto / floor, per process | median | "
-        "final states apart |",
-        "|---|---|---|---|---|---|---|---|",
+        "inlined ns/step | inlined / floor, per process | median | final states apart |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for label, (n, steps, row) in first.items():
         per, median = ratios(label, "auto")
+        per_inlined, median_inlined = ratios(label, "inlined")
         apart = max(sample[label][2]["floor"]["apart"] for sample in samples)
         lines.append(
             f"| {n} | {label} | {steps} | {med(label, 'auto'):,.0f} ({row['auto']['its']:.1f}, {row['auto']['mode']}) "
-            f"| {med(label, 'floor'):,.0f} ({row['floor']['its']:.1f}) | {per} | **{median:.1f}** | {apart:.1e} |"
+            f"| {med(label, 'floor'):,.0f} ({row['floor']['its']:.1f}) | {per} | **{median:.1f}** | "
+            f"{med(label, 'inlined'):,.0f} | {per_inlined} | **{median_inlined:.1f}** | {apart:.1e} |"
         )
     lines += [
         "",
-        "Final states apart: the largest |x_floor − x_geomint| over the three geomint solvers and the "
+        "Final states apart: the largest |x_floor − x_geomint| over the four geomint runs and the "
         "processes, at the end of the run: both solve the same scheme, apart by where each solver stops (the "
         "residuals below).",
         "",
@@ -771,22 +787,20 @@ Reading these tables (the run this page was written from):
 
 - **Each floor is a floor**: exact at every step of its run (no step failing, |ΔH| within 2.4 ulps of its terms, S
   never against its direction), on geomint's trajectory (final states within 3·10⁻¹¹) and as close to the step's
-  root as geomint's solvers within that measure's noise. This page was regenerated on the machine of the
-  session before (2026-11-26, the fifth session of issue 30), where the hand-written floors run faster relative
-  to geomint than on the machine of the earlier figures (the gas containers' floor 2.2 µs a step here, 3.2
-  there). The gas containers: 3.2 → 2.2 × in this session. Their Newton now takes a fresh Jacobian at every
-  step with the linearly implicit start, as their floor does (a dense refresh of at most 6 field evaluations,
-  n ≤ 4: 3.7 iterations a step, against 7.1 with kept factors and the extrapolated start), and the first
-  iterate carries the last step's gains only from that start (from the extrapolated start they cost ~3
-  iterations). Carrying them only there had made the bundled gas scene fail a step near its equilibrium in
-  the session before: the cause was the level correction (its scalar Newton ended in the round-off of E and
-  missed by a few ulps; it now brackets and bisects, docs/engine_rn.md), not the gains. What is left is the
-  field: geomint's 0.76 µs at n = 4 against the floor's 0.23 (the user's functions 0.15–0.19 of it; the
-  discrete gradient of H alone 0.15), and the refresh's five evaluations of ξ through the user's matrix
-  functions. Earlier in the history of these ratios: before the step loop stopped counting references to
-  its arrays (docs/engine_speed.md, reading) they were 4.5, 5.5, 7.3 and 4.6; before the catalogue's Euler and
-  random Fish P were written at the cost of their structure (below), 1.9, 3.2, 6.7 and 4.2; the pendula were
-  at 3.7–4.5 × until the session before.
+  root as geomint's solvers within that measure's noise. This page was regenerated on 2026-11-26 (late), after
+  systems in Rⁿ began handing their functions to the step loop first-class by default (docs/startup.md, "Rⁿ
+  systems first-class": a new system's first solve 3 s instead of about a minute): the auto columns are that
+  run, the inlined column the same run under `GEOMINT_INLINE=all`. The discrete field's small helpers are now
+  inlined by LLVM in both. The gas containers: 2.4 × first-class, 1.8 × inlined (2.2 inlined before the
+  helpers were); from n = 24 on the two columns are within 0.1 of each other. What is left at n = 4,
+  first-class, is the field (656 ns against the floor's 232: the user's four functions 206 of it, their
+  first-class calls 54, each returning an array; the projections 79) and the refresh's five evaluations of ξ
+  through the user's matrix functions; the iterations match the floor's (3.9 against 3.7). Earlier in the
+  history of these ratios: before the step loop stopped counting references to its arrays
+  (docs/engine_speed.md, reading) they were 4.5, 5.5, 7.3 and 4.6; before the catalogue's Euler and random
+  Fish P were written at the cost of their structure (below), 1.9, 3.2, 6.7 and 4.2; the pendula were at
+  3.7–4.5 × until the session before; the gas containers at 3.2 until their Newton took a fresh Jacobian at
+  every step (docs/engine_rn.md).
   The figures in the bullets below are from earlier runs where they differ from the tables above.
 - **The pendula at the floor's iterations (3.7 a step).** The floor forms the pendula's Newton matrix from the
   zero pattern of L and M at every step (each pendulum's 2 × 2 block and the s row, O(n)). geomint now probes

@@ -62,8 +62,9 @@ def test_every_step_is_exact_on_random_fish_systems(n, seed, eps, h, radius, whi
     x0 *= radius / np.linalg.norm(x0)
     method = (*DISCRETE_GRADIENTS, geomint.SymmetrizedItohAbe())[which if which < 3 or n <= 5 else 0]
     sol = geomint.solve(system, x0, (0.0, 20 * h), h=h, method=method)
-    if not sol.success:  # a reported Newton failure, only at a step beyond the time scale (docs/engine_rn.md)
-        assert sol.status == geomint.Status.NEWTON_FAILED and sol.step_ratio > 1.0, (sol.message, sol.step_ratio)
+    if not sol.success:  # a reported failure of the solve, only at a step beyond the time scale (docs/engine_rn.md)
+        failures = (geomint.Status.NEWTON_FAILED, geomint.Status.NOT_ACCEPTED)
+        assert sol.status in failures and sol.step_ratio > 1.0, (sol.message, sol.step_ratio)
         assume(False)
     assert sol.x.shape == (21, n)
     assert_exact_steps(system, sol)

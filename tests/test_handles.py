@@ -126,6 +126,21 @@ def test_GEOMINT_INLINE_0_hands_every_function_over_first_class(monkeypatch):
     assert all(isinstance(fn, CompileResultWAP) for fn in (model.H, model.grad_H, model.S, model.grad_S, model.J))
 
 
+@pytest.mark.parametrize(
+    ("setting", "in_r3", "in_rn"), [(None, True, False), ("1", True, False), ("all", True, True), ("0", False, False)]
+)
+def test_GEOMINT_INLINE_chooses_where_the_functions_are_inlined(setting, in_r3, in_rn, monkeypatch):
+    """Inlined in R^3 by default, in R^n too under ``all``, nowhere under ``0``."""
+    if setting is None:
+        monkeypatch.delenv("GEOMINT_INLINE", raising=False)
+    else:
+        monkeypatch.setenv("GEOMINT_INLINE", setting)
+    assert (handles.enabled(), handles.enabled(rn=True)) == (in_r3, in_rn)
+    assert isinstance(_body().inlined_model.H, handles.InlinedHandle) is in_r3
+    gas = geomint.systems.gas_containers()
+    assert isinstance(gas.inlined_model.H, handles.InlinedHandle) is in_rn
+
+
 #: a method of each engine: discrete gradient, explicit, composition, splitting, projected pair (adaptive)
 _ENGINES = {
     "gonzalez": lambda: "gonzalez",

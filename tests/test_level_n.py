@@ -77,9 +77,9 @@ def friction(x, v, p):
     return out
 
 
-def chain():
+def chain(E=energy, **options):
     return geomint.GenericSystem(
-        E=energy,
+        E=E,
         grad_E=grad_energy,
         S=entropy,
         grad_S=grad_entropy,
@@ -87,6 +87,7 @@ def chain():
         M_apply=friction,
         dim=DIM,
         name="quartic_chain",
+        **options,
     )
 
 
@@ -133,3 +134,25 @@ def test_the_chain_keeps_every_step_to_its_acceptance(method):
     allowed = step_n.ACCEPT_ULPS * EPS * max(terms(x) for x in sol.x)
     assert np.max(np.abs(sol.H - sol.H[0])) <= allowed
     assert np.all(np.diff(sol.S) >= -step_n.ACCEPT_S_ULPS * EPS * np.abs(sol.S[1:]))
+
+
+#: a jitter far beyond the acceptance (hundreds of ulps of E's terms), flipping sign from one ulp of q_0 to the next
+JITTER = 1e-12
+
+
+@numba.njit
+def jittered_energy(x, p):
+    return energy(x, p) + (JITTER if int(x[0] * 2.0**52) & 1 else -JITTER)
+
+
+def test_a_step_whose_solve_converged_but_misses_the_level_is_reported_as_such():
+    """E evaluated with a jitter of hundreds of ulps, as a sum that cancels might: the solve converges (its
+    discrete gradients see the jitter divided by |x' - x|^2), no state near the level is within ``ACCEPT_ULPS`` of
+    it, and the step fails as ``NOT_ACCEPTED`` with its cause, not as a Newton iteration that did not converge;
+    the states before it are kept."""
+    system = chain(E=jittered_energy, check=False)
+    sol = geomint.solve(system, start(), (0.0, 30.0), h=0.05)
+    assert sol.status == geomint.Status.NOT_ACCEPTED, sol.message
+    assert "failed the acceptance" in sol.message and "did not converge" not in sol.message
+    assert sol.failed_step is not None and len(sol.t) == sol.failed_step
+    assert np.all(np.isfinite(sol.x))

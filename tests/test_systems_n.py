@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from numba.core.types.function_type import CompileResultWAP
 
 import geomint
 from geomint._kernels import layout
@@ -389,7 +390,13 @@ def test_a_raising_function_is_named_at_evaluation():
 
 # -- the model the kernels receive -------------------------------------------------------------------
 @pytest.mark.inlined
-def test_the_model_is_a_ModelN_of_first_class_functions_and_the_loops_of_inlined_ones():
+def test_the_model_is_a_ModelN_of_first_class_functions_and_the_loops_of_inlined_ones(monkeypatch):
+    """The step loop of an R^n system takes its functions first-class by default, inlined under
+    ``GEOMINT_INLINE=all`` (``model.handles.enabled``)."""
+    for system in (_fish(), _generic()):
+        inlined = system.inlined_model
+        assert all(isinstance(fn, CompileResultWAP) for fn in (inlined.H, inlined.grad_H, inlined.S, inlined.grad_S))
+    monkeypatch.setenv("GEOMINT_INLINE", "all")
     paper, generic = _fish(), _generic()
     for system, metric, direction in ((paper, layout.PAPER_METRIC, -1.0), (generic, layout.USER_METRIC, 1.0)):
         model = system.model

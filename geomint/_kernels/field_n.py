@@ -16,12 +16,12 @@ import numpy as np
 from numba import njit
 
 from .._cache import CACHE
-from .jit import inner
+from .jit import hot, inner
 from .layout import FN_GRAD_H, FN_GRAD_S, FN_H, FN_POISSON, FN_S, M_ACTION, P_ACTION, PAPER_METRIC, SQRT_EPS, UNKNOWN
 from .vecn import all_finite, copy_into, dot, matvec_into, norm_inf, norm_rows
 
 
-@inner
+@hot
 def apply_P(model, x, v, out, with_size):
     """``out = P(x) v`` in P's native form; returns a size of ``P(x)`` where ``with_size`` (0 otherwise): its
     infinity norm (row sums) for a matrix, the gain ``|P v|_inf / |v|_inf`` on ``v`` for an action."""
@@ -37,7 +37,7 @@ def apply_P(model, x, v, out, with_size):
     return norm_rows(m) if with_size else 0.0
 
 
-@inner
+@hot
 def apply_M(model, x, v, out, with_size):
     """``out = M(x) v`` (the user's metric) in its native form; the size as ``apply_P``."""
     p = model.params

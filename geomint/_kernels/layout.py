@@ -31,6 +31,7 @@ PROJECTION_FAILED = -3
 USER_RAISED = -4  # a user function raised inside the step (``geomint._user_errors``)
 INVALID_START = -5  # an ensemble's start where H or S is not finite
 STEP_TOO_SMALL = -6  # an adaptive run needed a step below the resolution of its time
+NOT_ACCEPTED = -7  # an R^n step whose solve converged missed the acceptance (H, S beyond round-off)
 
 # -- which user function produced a non-finite value (counters[CULPRIT]) ------------------------
 UNKNOWN = 0

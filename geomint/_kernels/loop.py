@@ -36,6 +36,7 @@ from .layout import (
     NEWTON_FAILED,
     NEWTON_ITERATIONS,
     NON_FINITE,
+    NOT_ACCEPTED,
     OK,
     PROJECTION_FAILED,
     RAISED,
@@ -304,7 +305,10 @@ def run(model, eps, hamiltonian, method, control, state, work, clock, stops, bud
                 if streak_h == 0.0 or abs(clock[C_H]) > resolution:
                     continue
                 status = STEP_TOO_SMALL
-            if status in (NEWTON_FAILED, PROJECTION_FAILED, NON_FINITE) and abs(h) * FAILED_FACTOR > resolution:
+            if (
+                status in (NEWTON_FAILED, NOT_ACCEPTED, PROJECTION_FAILED, NON_FINITE)
+                and abs(h) * FAILED_FACTOR > resolution
+            ):
                 clock[C_H] = h * FAILED_FACTOR
                 rejected += 1
                 after_rejection = True

@@ -49,7 +49,7 @@ moved against its direction by more than round-off, along
 ``Pi_H grad S(x')`` back to S(x) (which leaves H unchanged to first order).
 Both moves are of the size of the residual, so they keep the order, whichever
 solver stopped.  A step whose result still misses H by ``ACCEPT_ULPS`` of its
-terms, or S by ``ACCEPT_S_ULPS``, fails (``NEWTON_FAILED``) and the run stops
+terms, or S by ``ACCEPT_S_ULPS``, fails (``NOT_ACCEPTED``) and the run stops
 with the state before it.
 
 **Damped** (``DampedGonzalez``): the dissipation is scaled by
@@ -87,6 +87,7 @@ from .layout import (
     M_ACTION,
     NEWTON_FAILED,
     NON_FINITE,
+    NOT_ACCEPTED,
     OK,
     P_ACTION,
     PAPER_METRIC,
@@ -313,7 +314,7 @@ def lapack_pivots(work, n):
     return vector(work, V_PIVOTS, n).view(LAPACK_INT)[:n]
 
 
-@inner
+@hot
 def term_scale_n(f_old, f_new, gradient, x, constant):
     """``max(|F(x)|, |F(x')|, sum_i |d_i F x_i|) + |F(0)|``: the size of the terms of F (the round-off of its
     values, ``roundoff.term_scale`` in R^3)."""
@@ -321,7 +322,7 @@ def term_scale_n(f_old, f_new, gradient, x, constant):
 
 
 # -- discrete gradients ------------------------------------------------------------------------------------------
-@inner
+@hot
 def _project_identity(out, f_old, f_new, dx, y, gain, constant):
     """Gonzalez's projection of ``out`` onto ``out . dx = F(x') - F(x)``, in place, under the R^3 switching rule
     (``discrete_gradient.gonzalez``): only where the defect exceeds its round-off bound and its correction's
@@ -363,7 +364,7 @@ def _itoh_abe_order(out, F, grad_F, params, x, y, f_old, f_new, order, vertex, m
         f_prev = f_next
 
 
-@inner
+@hot
 def discrete_gradient_n(kind, coeffs, F, grad_F, params, x, y, f_old, f_new, gain, constant, out, scratch):
     """A discrete gradient of ``F`` between ``x`` and ``y`` into ``out`` (``kind``: ``layout`` codes):
 
@@ -434,7 +435,7 @@ def _symmetrized(out, F, grad_F, params, x, y, f_old, f_new, vertex, mid, order,
 
 
 # -- the discrete field ------------------------------------------------------------------------------------------
-@inner
+@hot
 def discrete_field_n(kind, coeffs, model, eps, hamiltonian, x, H_x, S_x, y, gain_h, gain_s, work, sized):
     """``F(x, y)`` of the module docstring into the workspace's ``V_F``; returns ``(H(y), S(y), noise, |P|, |M|)``
     with ``noise`` the round-off bound of the discrete gradients' quotients and the sizes of ``P(xbar)`` and
@@ -1123,7 +1124,7 @@ def discrete_gradient_step_n(kind, max_iter, damped, coeffs, model, eps, hamilto
             increment = max(increment, abs(y[i] - x[i]))
         if not increment <= REST * norm_inf(x):
             work[WN_HISTORY] = 0.0
-            return StepResult(y, comp, H_y, S_y, NEWTON_FAILED, iterations, evaluations, theta, UNKNOWN)
+            return StepResult(y, comp, H_y, S_y, NOT_ACCEPTED, iterations, evaluations, theta, UNKNOWN)
         # at rest: near an equilibrium grad H and grad S are parallel, the level sets of H and S touch, and no
         # state within round-off of the root keeps H with S not rising; x itself does (it was accepted)
         copy_into(y, x)

@@ -17,7 +17,7 @@ from numba import types
 from numba.extending import overload
 from numba.np.linalg import _LAPACK, F_INT_nptype, ensure_lapack
 
-from .jit import OVERLOADED, inner
+from .jit import OVERLOADED, hot, inner
 
 #: numba's binding of ``dgetrf`` (the one np.linalg uses; scipy's LAPACK is loaded when a kernel is compiled)
 _getrf = _LAPACK.numba_xxgetrf(types.float64)
@@ -26,7 +26,7 @@ _getrf = _LAPACK.numba_xxgetrf(types.float64)
 LAPACK_INT = F_INT_nptype
 
 
-@inner
+@hot
 def dot(u, v):
     """``u . v`` in four partial sums (``i mod 4``), added pairwise at the end: four independent chains of
     additions the processor overlaps, where one waits on each addition (the rounding differs from a single
@@ -46,7 +46,7 @@ def dot(u, v):
     return (s0 + s1) + (s2 + s3)
 
 
-@inner
+@hot
 def abs_dot(u, v):
     """``sum_i |u_i v_i|``: the size of the terms of ``u . v`` (four partial sums, as ``dot``)."""
     n = u.shape[0]
@@ -64,7 +64,7 @@ def abs_dot(u, v):
     return (s0 + s1) + (s2 + s3)
 
 
-@inner
+@hot
 def scaled_norm2(u, scale):
     """``sum_i (scale u_i)^2`` in four partial sums (as ``dot``): with ``scale = 1 / |u|_inf``, ``|u|^2 /
     |u|_inf^2`` without underflow or overflow."""
@@ -85,7 +85,7 @@ def scaled_norm2(u, scale):
     return (s0 + s1) + (s2 + s3)
 
 
-@inner
+@hot
 def norm_inf(u):
     """``max_i |u_i|``, NaN where any component is NaN.  Four running maxima (a maximum is exact in any order):
     independent chains the processor overlaps, where one chain waits on each comparison."""
@@ -116,7 +116,7 @@ def all_finite(u):
     return True
 
 
-@inner
+@hot
 def copy_into(out, u):
     for i in range(u.shape[0]):
         out[i] = u[i]
@@ -131,7 +131,7 @@ def axpy_into(out, a, u, v):
     return out
 
 
-@inner
+@hot
 def remove_scaled(u, e, dd):
     """``remove_along(u, d)`` with ``e = d / |d|_inf`` and ``dd = e . e`` prepared by the caller, once for several
     vectors (nothing where ``dd`` is 0): the same arithmetic as ``remove_along``'s, bit for bit."""

@@ -37,8 +37,12 @@ tuples of them and arrays.  A script that reads a size from its command line
 into a global gets kernels of that size, not those cached for the last one
 (numba's own cache keys by the file alone, and would serve them).  A change
 in *another* file the function calls is not seen: clear the cache
-(``geomint._cache``) after such a change.  ``GEOMINT_INLINE=0`` in the environment hands every function over
-first-class (one compilation per form, e.g. for many throw-away systems).
+(``geomint._cache``) after such a change.
+
+Where it pays: a system in R^3 is specialised by default; a system in R^n
+is handed over first-class (:func:`enabled`).  ``GEOMINT_INLINE=all`` in the
+environment specialises R^n systems too, ``GEOMINT_INLINE=0`` neither (one
+compilation per form, e.g. for many throw-away systems).
 
 Pickling: numba stores the argument types of each cached compilation in an
 index shared by all systems.  An :class:`Inlined` type pickles to its key and
@@ -197,16 +201,24 @@ def _frozen_globals(py_func: Any, seen: set[int] | None = None) -> str:
     return digest.hexdigest()[:16]
 
 
-def enabled() -> bool:
-    """False where ``GEOMINT_INLINE=0`` is set: every function is then handed over first-class."""
-    return os.environ.get("GEOMINT_INLINE", "1") != "0"
+def enabled(rn: bool = False) -> bool:
+    """Whether the step loop of a system in R^3 (``rn`` False) or in R^n inlines its user functions, by
+    ``GEOMINT_INLINE``: unset or ``1``, in R^3 only; ``all``, in R^n too; ``0``, nowhere (every function handed
+    over first-class).
+
+    In R^n inlining is off by default: it saves less there (the user's functions return arrays and do O(n)
+    work a call; the engine's own work dominates from a few dozen coordinates on), and specialising the larger
+    R^n step to each new system compiles many times longer than the first-class step, which is compiled once
+    for every system of its form (docs/startup.md, "R^n systems first-class")."""
+    setting = os.environ.get("GEOMINT_INLINE", "1")
+    return setting == "all" or (setting != "0" and not rn)
 
 
 def inline_key(fn: Any) -> tuple[str, ...] | None:
     """``(module, qualname, digest of the source file and of the globals frozen in, digest of the compile
     options)`` of a module-level numba function found again under its module and name, else None (see the module
     docstring)."""
-    if not enabled() or not isinstance(fn, Dispatcher):
+    if not isinstance(fn, Dispatcher):
         return None
     py_func = fn.py_func
     module, qualname = py_func.__module__, py_func.__qualname__

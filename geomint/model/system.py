@@ -118,11 +118,14 @@ class MetriplecticSystem:
     #: the class a call with ``dim`` other than 3 makes (``model.system_n.MetriplecticSystemN`` registers itself
     #: by subclassing with ``rn=True``: this module imports none of the R^n model)
     _rn_class: type | None = None
+    #: True in that class and its subclasses
+    _in_rn: bool = False
 
     def __init_subclass__(cls, rn: bool = False, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
         if rn:
             MetriplecticSystem._rn_class = cls
+            cls._in_rn = True
 
     def __new__(cls, *args: Any, dim: Any = None, **kwargs: Any) -> Self:
         """``MetriplecticSystem(..., dim=n)`` with n other than 3 makes a system in R^n (``MetriplecticSystemN``,
@@ -206,13 +209,14 @@ class MetriplecticSystem:
     @property
     def inlined_model(self) -> Model:
         """The same model with each user function that can be found again by name handed over to be inlined
-        (``geomint.model.handles``): the step loop's (``geomint.run.chunks``, ensembles), compiled for this
-        system and cached, several times faster on small systems; its kernels catch what the functions raise."""
+        (``geomint.model.handles``, by default in R^3 only): the step loop's (``geomint.run.chunks``, ensembles),
+        compiled for this system and cached, several times faster on small systems; its kernels catch what the
+        functions raise."""
         return self._kernel_model(inline=True)
 
     def _kernel_model(self, inline: bool) -> Any:
         models = self.__dict__.setdefault("_models", {})
-        inline = inline and handles.enabled()
+        inline = inline and handles.enabled(rn=self._in_rn)
         if inline not in models:
             models[inline] = self._build_model(lambda fn, action=False: kernel_handle(fn, action, inline))
         return models[inline]

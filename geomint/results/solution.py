@@ -57,7 +57,9 @@ class Solution:
         projection found no point of H = H0 that does not raise S; -4
         ``USER_RAISED``, a user function raised an exception during a step
         (named in ``message``); -6 ``STEP_TOO_SMALL``, the error control needed
-        a step below the resolution of t.  (An ensemble's trajectories may also
+        a step below the resolution of t; -7 ``NOT_ACCEPTED``, an R^n step's
+        solve converged but its state missed H0 or let S move against its
+        direction beyond round-off.  (An ensemble's trajectories may also
         have -5 ``INVALID_START`` and 3 ``NOT_RUN``.)
     message : str
         What happened, naming the failed step and time if any.

@@ -31,6 +31,7 @@ class Status(IntEnum):
     USER_RAISED = _layout.USER_RAISED
     INVALID_START = _layout.INVALID_START
     STEP_TOO_SMALL = _layout.STEP_TOO_SMALL
+    NOT_ACCEPTED = _layout.NOT_ACCEPTED
 
     @property
     def message(self) -> str:
@@ -68,6 +69,8 @@ _MESSAGES = {
     Status.USER_RAISED: "a user function raised inside a step",
     Status.INVALID_START: "invalid start: H or S is not finite there",
     Status.STEP_TOO_SMALL: "the error control needed a step below the resolution of t (16 ulp)",
+    Status.NOT_ACCEPTED: "the solve converged to a state that failed the acceptance even after the level "
+    "corrections (H within 4 ulps of its terms of H0, S not against its direction by more than 2)",
 }
 _ADVICE = {
     Status.OK: "",
@@ -82,4 +85,7 @@ _ADVICE = {
     Status.INVALID_START: "Start where H and S are finite.",
     Status.STEP_TOO_SMALL: "Loosen rtol/atol; if the solution is stiff there, DampedGonzalez() takes steps "
     "limited by accuracy only.",
+    Status.NOT_ACCEPTED: "H or S carries more round-off there than the size of its terms shows (terms that cancel, "
+    "a noisy evaluation); an adaptive run (rtol) retries smaller steps. If H and S are smooth, please report the "
+    "system: the level search should leave no such miss.",
 }
