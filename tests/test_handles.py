@@ -165,6 +165,24 @@ def test_inlined_and_first_class_kernels_give_the_same_bits(name, monkeypatch):
     np.testing.assert_array_equal(inlined.S, first_class.S)
 
 
+@pytest.mark.slow  # compiles the R^n step loop for the gas containers (a minute or more)
+@pytest.mark.parametrize("adaptive", [False, True], ids=["fixed", "adaptive"])
+def test_an_rn_system_specialised_gives_the_bits_of_its_first_class_run(adaptive, monkeypatch):
+    """``GEOMINT_INLINE=all`` specialises an R^n system's step loop to its functions (off by default): the same
+    states, H and S, bit for bit, as the first-class run, with fixed steps and adaptive ones."""
+    gas, x0 = geomint.systems.gas_containers(), np.array([1.2, 0.3, 2.0, 2.0])
+    options = {"rtol": 1e-8} if adaptive else {"h": 0.05}
+    monkeypatch.setenv("GEOMINT_INLINE", "all")
+    assert isinstance(gas.inlined_model.grad_H, handles.InlinedHandle)
+    inlined = geomint.solve(gas, x0, (0.0, 20.0), **options)
+    monkeypatch.setenv("GEOMINT_INLINE", "0")
+    first_class = geomint.solve(geomint.systems.gas_containers(), x0, (0.0, 20.0), **options)
+    assert inlined.success and first_class.success, (inlined.message, first_class.message)
+    np.testing.assert_array_equal(inlined.x, first_class.x)
+    np.testing.assert_array_equal(inlined.H, first_class.H)
+    np.testing.assert_array_equal(inlined.S, first_class.S)
+
+
 def test_a_key_unpickles_to_the_live_type_or_to_one_that_matches_nothing_and_keeps_its_key():
     live = numba.typeof(relaxing_rigid_body().inlined_model.H)
     assert isinstance(live, handles.Inlined)
