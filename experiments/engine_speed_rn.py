@@ -166,11 +166,13 @@ def engine_run(system, x0, h, steps, solver, every_state=False, method=None, inl
     clock = layout.new_clock(0.0)
     setting = os.environ.get("GEOMINT_INLINE")
     os.environ["GEOMINT_INLINE"] = "all" if inlined else "1"
-    model, eps, ham = system.inlined_model, system.eps, system.hamiltonian  # as solve runs it
-    if setting is None:
-        del os.environ["GEOMINT_INLINE"]
-    else:
-        os.environ["GEOMINT_INLINE"] = setting
+    try:
+        model, eps, ham = system.inlined_model, system.eps, system.hamiltonian  # as solve runs it
+    finally:
+        if setting is None:
+            del os.environ["GEOMINT_INLINE"]
+        else:
+            os.environ["GEOMINT_INLINE"] = setting
     loop.run(model, eps, ham, data, grid, state, work, clock, np.array([t_end]), n_steps, out)
     if every_state:
         return out.x[: out.counters[layout.ROWS]].copy(), out.counters, work

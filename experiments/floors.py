@@ -20,7 +20,7 @@ All on the relaxing rigid body, ``H = (a x^2 + b y^2 + c z^2) / 2``, ``S = |x|^2
   within 4 ulps of the increment, or a measured contraction bounding the rest within one ulp); ``strict=False``
   stops as the library's ``newton.newton`` does, which accepts the first corrected iterate that keeps H and S
   (on the first iteration no rate is measured: its ``theta = error / inf = 0``).  Every step is then held to the
-  library's acceptance (``newton.ACCEPT_ULPS``, ``ACCEPT_S_ULPS``): H within 4 ulps of its terms of H(x0), S not
+  library's acceptance (``layout.ACCEPT_ULPS``, ``ACCEPT_S_ULPS``): H within 4 ulps of its terms of H(x0), S not
   above S(x_n) by more than 2 ulps of its terms (``geomint/_kernels/roundoff.py``); a step that misses is
   counted in ``FloorRun.failures``, and a floor with failures is no floor.  It is a floor because it does the
   work the step needs and nothing else: the same equation to the same round-off, the same iteration and
@@ -45,7 +45,8 @@ from collections import namedtuple
 import numpy as np
 from numba import njit, prange
 
-from geomint._kernels.newton import ACCEPT_S_ULPS, ACCEPT_ULPS, THETA_REFRESH
+from geomint._kernels.layout import ACCEPT_S_ULPS, ACCEPT_ULPS
+from geomint._kernels.newton import THETA_REFRESH
 from geomint._kernels.vec3 import FLUSH, flush_tiny
 
 

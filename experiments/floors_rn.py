@@ -44,7 +44,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from geomint._kernels.step_n import ACCEPT_S_ULPS, ACCEPT_ULPS, LAPACK_MIN_N, THETA_REFRESH
+from geomint._kernels.layout import ACCEPT_S_ULPS, ACCEPT_ULPS
+from geomint._kernels.step_n import LAPACK_MIN_N, THETA_REFRESH
 from geomint._kernels.vecn import LAPACK_INT, lapack_factor, lapack_solve, lu_factor, lu_solve
 
 EPS = np.finfo(float).eps

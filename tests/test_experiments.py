@@ -12,7 +12,7 @@ from experiments.floors_rn import floor_for
 from experiments.methods import geomint_methods
 from experiments.runs import Windows, growth_law, not_applicable, scipy_solution
 from experiments.work_precision import cost_to_reach
-from geomint._kernels.step_n import ACCEPT_S_ULPS, ACCEPT_ULPS
+from geomint._kernels.layout import ACCEPT_S_ULPS, ACCEPT_ULPS
 
 
 @pytest.mark.parametrize(("coefficient", "eps"), [(1.0, 0.3), (0.5, 1.0), (2.0, 0.05)])

@@ -17,7 +17,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import geomint
-from geomint._kernels import step_n
+from geomint._kernels import layout, step_n
 
 EPS = np.finfo(float).eps
 N = 50
@@ -119,7 +119,7 @@ def test_a_state_off_the_level_of_a_long_sum_is_brought_onto_it(seed, scale, off
     y = x.copy()
     landed, _ = _to_level(system.inlined_model, y, value, target, unit)
     assert landed == energy(y, None)
-    assert abs(landed - target) <= step_n.ACCEPT_ULPS * unit, (landed - target) / unit
+    assert abs(landed - target) <= layout.ACCEPT_ULPS * unit, (landed - target) / unit
     assert y[-1] == x[-1]
     assert np.max(np.abs(y - x)) <= 1e-10
 
@@ -131,9 +131,9 @@ def test_the_chain_keeps_every_step_to_its_acceptance(method):
     system, x0 = chain(), start()
     sol = geomint.solve(system, x0, (0.0, 30.0), h=0.05, method=method)
     assert sol.success, sol.message
-    allowed = step_n.ACCEPT_ULPS * EPS * max(terms(x) for x in sol.x)
+    allowed = layout.ACCEPT_ULPS * EPS * max(terms(x) for x in sol.x)
     assert np.max(np.abs(sol.H - sol.H[0])) <= allowed
-    assert np.all(np.diff(sol.S) >= -step_n.ACCEPT_S_ULPS * EPS * np.abs(sol.S[1:]))
+    assert np.all(np.diff(sol.S) >= -layout.ACCEPT_S_ULPS * EPS * np.abs(sol.S[1:]))
 
 
 #: a jitter far beyond the acceptance (hundreds of ulps of E's terms), flipping sign from one ulp of q_0 to the next

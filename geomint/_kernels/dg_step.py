@@ -14,8 +14,20 @@ from numba import types
 
 from .field import field
 from .jit import hot, inner, typed_inline
-from .layout import EPS, NEWTON_FAILED, OK, UNKNOWN, W_H, W_HISTORY, W_JACOBIAN_VALID, Damped, StepResult, Undamped
-from .newton import ACCEPT_ULPS, THETA_REFRESH, attempts, jacobian, newton, newton_matrix, predictor, remember
+from .layout import (
+    ACCEPT_ULPS,
+    EPS,
+    NEWTON_FAILED,
+    OK,
+    UNKNOWN,
+    W_H,
+    W_HISTORY,
+    W_JACOBIAN_VALID,
+    Damped,
+    StepResult,
+    Undamped,
+)
+from .newton import THETA_REFRESH, attempts, jacobian, newton, newton_matrix, predictor, remember
 from .projection import S_CAP_ULPS, lower_S
 from .roundoff import origin_terms, term_scale
 from .vec3 import ZERO, as_vector, load, same, sub

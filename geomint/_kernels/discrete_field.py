@@ -73,7 +73,7 @@ def polish(F, dg_h, dg_s, eps):
 
 
 #: ``polish`` is skipped where the rounding it removes moves H and S by at most an ulp of their terms, a quarter of
-#: the acceptance's allowance (``newton.ACCEPT_ULPS``): the worst-case factor of ``polish_moves``
+#: the acceptance's allowance (``layout.ACCEPT_ULPS``): the worst-case factor of ``polish_moves``
 ROUNDING_BOUND = 32.0
 
 

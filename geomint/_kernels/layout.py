@@ -33,6 +33,13 @@ INVALID_START = -5  # an ensemble's start where H or S is not finite
 STEP_TOO_SMALL = -6  # an adaptive run needed a step below the resolution of its time
 NOT_ACCEPTED = -7  # an R^n step whose solve converged missed the acceptance (H, S beyond round-off)
 
+# -- the acceptance of a step (R^3 ``newton``, R^n ``step_n``) -----------------------------------
+#: an accepted step keeps H to its anchor within this many ulps of its terms: twice the bound below which the
+#: discrete-gradient correction is round-off and skipped (``discrete_gradient.gonzalez``)
+ACCEPT_ULPS = 4.0
+#: and does not move S against its direction by more than this many ulps of its terms
+ACCEPT_S_ULPS = 2.0
+
 # -- which user function produced a non-finite value (counters[CULPRIT]) ------------------------
 UNKNOWN = 0
 FN_H = 1

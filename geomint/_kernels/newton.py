@@ -15,6 +15,8 @@ from .discrete_field import discrete_field
 from .field import field, non_finite_culprit
 from .jit import hot, inner
 from .layout import (
+    ACCEPT_S_ULPS,
+    ACCEPT_ULPS,
     EPS,
     NEWTON_FAILED,
     NON_FINITE,
@@ -36,15 +38,6 @@ from .vec3 import abs_dot, add, advance, as_vector, axpy, dot, is_finite, load, 
 #: a root found to round-off must keep H and S to this many ulps of their terms; a far-away
 #: spurious root (a step far beyond the time scale) does not
 GUARD = 1024.0
-
-
-#: an accepted iterate keeps H to its anchor within this many ulps of its terms: twice the bound below which
-#: the discrete-gradient correction is round-off and skipped (``discrete_gradient.gonzalez``)
-ACCEPT_ULPS = 4.0
-
-
-#: and does not raise S by more than this many ulps of its terms
-ACCEPT_S_ULPS = 2.0
 
 
 #: a first contraction rate above this makes the slot take a fresh Jacobian at its next step

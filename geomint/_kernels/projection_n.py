@@ -16,8 +16,8 @@ and the pull back of a composed step onto H(x0) (docs/engine_rn.md).
 import numpy as np
 
 from .jit import inner
-from .layout import EPS
-from .step_n import ACCEPT_S_ULPS, ACCEPT_ULPS, CORRECTION_ROUNDS, term_scale_n, to_level
+from .layout import ACCEPT_S_ULPS, ACCEPT_ULPS, EPS
+from .step_n import CORRECTION_ROUNDS, term_scale_n, to_level
 
 
 @inner

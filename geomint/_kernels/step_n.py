@@ -80,6 +80,8 @@ from .field_n import (
 )
 from .jit import hot, inner
 from .layout import (
+    ACCEPT_S_ULPS,
+    ACCEPT_ULPS,
     AVF,
     EPS,
     GONZALEZ,
@@ -118,14 +120,6 @@ from .vecn import (
     remove_scaled,
     scaled_norm2,
 )
-
-#: an accepted step keeps H to its anchor within this many ulps of its terms
-ACCEPT_ULPS = 4.0
-
-
-#: and does not move S against its direction by more than this many ulps of its terms
-ACCEPT_S_ULPS = 2.0
-
 
 #: a first contraction rate above this makes the next step take a fresh Jacobian
 THETA_REFRESH = 0.1

@@ -70,7 +70,8 @@ _MESSAGES = {
     Status.INVALID_START: "invalid start: H or S is not finite there",
     Status.STEP_TOO_SMALL: "the error control needed a step below the resolution of t (16 ulp)",
     Status.NOT_ACCEPTED: "the solve converged to a state that failed the acceptance even after the level "
-    "corrections (H within 4 ulps of its terms of H0, S not against its direction by more than 2)",
+    f"corrections (H within {_layout.ACCEPT_ULPS:g} ulps of its terms of H0, S not against its direction by more "
+    f"than {_layout.ACCEPT_S_ULPS:g})",
 }
 _ADVICE = {
     Status.OK: "",
