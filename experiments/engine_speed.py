@@ -347,14 +347,20 @@ def report_solves(solves, repeats):
 READING = """
 ## Reading
 
-**This run (2026-11-26, late) misses two lines that the page's run before held.** Gonzalez moving 2.11 × the exact
-floor (1.81 before) and `solve_ensemble` 2.32 × the prange floor (1.97), on a machine slower than that run's for
-everything (scipy's DOP853 solve 15.6 s against 8.6; the floors 2-9 % slower, geomint's Gonzalez, Yoshida4 and
-ensemble steps 20-26 % slower, its RK4 1 %). It
-is the machine, not the code: the previous commit (e81c8ea, before R^n systems went first-class and before the
-R^n field's helpers were inlined; no R^3 kernel differs but for one more failure code in the loop's retry test)
-gave 2.19 and 2.29 in the same hour. On this machine the two lines are not met; what makes geomint's larger step
-lose more than the floor on a slower machine is not measured yet.
+**This run (2026-11-27) misses two lines that the page's run of 2026-11-26 (morning) held.** Gonzalez moving 2.17 ×
+the exact floor (1.81 then) and `solve_ensemble` 2.27 × the prange floor (1.97); the floors ran 5-11 % slower than
+then (moving 101 ns against 91; the prange floor 16 %), geomint's Gonzalez steps and ensemble 30-35 % slower (moving
+220 ns against 165; its RK4 5 %). It is not the code: the commit that page was written from (78b230a), measured the
+same hour in fresh processes interleaved with this one (a script timing the moving case alone, 15 repeats a
+process), gave 2.06, 2.24 and 2.12 against 2.73 (the machine busy: the floor at 111 ns), 2.15 and 2.16, and three
+more of this commit in the next minutes 2.16, 2.17 and 2.10; geomint's step 189-206 ns for both and the floor 92 ns
+for both. The R³ step has not changed since; the loop reads H and S of the start into its first row and retries one
+more failure code in adaptive runs. So the same compiled step that ran at 165 ns on that morning's machine runs at
+~195 ns on today's, while the floor runs at the same 92 ns. What makes geomint's step, and not the floor's, that
+sensitive to the machine is not measured: perf on this machine has no hardware counters (a virtual machine), and its
+samples show geomint's step waiting on chains of divisions (the contraction test, the discrete field's quotients)
+rather than on memory; the contraction test rewritten without one of those divisions (θ·error ≤ (1 − θ)·resolution
+in place of θ/(1 − θ)·error ≤ resolution) gained 1-3 %, within the noise, and was not kept.
 
 **What inlining changed.** Until 2026-11-25 every kernel reached the user's functions as first-class functions,
 calls numba cannot inline. The step loop now takes them inlined where they can be found again by name

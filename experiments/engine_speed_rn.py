@@ -789,15 +789,25 @@ Reading these tables (the run this page was written from):
 
 - **Each floor is a floor**: exact at every step of its run (no step failing, |ΔH| within 2.4 ulps of its terms, S
   never against its direction), on geomint's trajectory (final states within 3·10⁻¹¹) and as close to the step's
-  root as geomint's solvers within that measure's noise. This page was regenerated on 2026-11-26 (late), after
-  systems in Rⁿ began handing their functions to the step loop first-class by default (docs/startup.md, "Rⁿ
-  systems first-class": a new system's first solve 3 s instead of about a minute): the auto columns are that
-  run, the inlined column the same run under `GEOMINT_INLINE=all`. The discrete field's small helpers are now
-  inlined by LLVM in both. The gas containers: 2.4 × first-class, 1.8 × inlined (2.2 inlined before the
-  helpers were); from n = 24 on the two columns are within 0.1 of each other. What is left at n = 4,
-  first-class, is the field (656 ns against the floor's 232: the user's four functions 206 of it, their
-  first-class calls 54, each returning an array; the projections 79) and the refresh's five evaluations of ξ
-  through the user's matrix functions; the iterations match the floor's (3.9 against 3.7). Earlier in the
+  root as geomint's solvers within that measure's noise. This page was regenerated on 2026-11-27, after the
+  rest of the Rⁿ step's small kernels were handed to LLVM to inline (`jit.hot`: `vecn`'s matrix-vector product,
+  row norm and LU factor and solve; the field, its dissipative part and its Jacobian by differences; the
+  Newton matrix's refresh, factors and solve). Systems in Rⁿ hand their functions to the step loop
+  first-class by default (docs/startup.md, "Rⁿ systems first-class": a new system's first solve 3 s instead
+  of about a minute): the auto columns are that run, the inlined column the same run under
+  `GEOMINT_INLINE=all`. The gas containers: 2.2 × first-class (2.4 the day before, with only the discrete
+  field's helpers inlined; the same script, interleaved with the commit before in fresh processes: 2.07–2.17
+  against 2.46–2.56), 1.8 × inlined; from n = 24 on the two columns are within 0.1 of each other. perf on the
+  gas containers' run before this change: 12 % of the samples in `malloc`, `free` and numba's allocator and
+  reference counts (the arrays the user's functions return: grad E, grad S, L and M at every field, four at
+  each of the refresh's five evaluations of ξ, about 40 a step; the floor allocates none, and inlining the
+  user's functions does not remove them), 13 % in `exp` and `log` (the user's E, grad E and M each take
+  the two internal energies again, where the floor takes them once per point), 22 % in the small kernels
+  inlined now (their work and their calls). What is left at n = 4, first-class, is the field
+  (562 ns against the floor's 235: the user's four functions 246 of it, their first-class calls 101; the
+  projections 81) and the refresh's five evaluations of ξ through the user's matrix functions; the
+  iterations match the floor's (3.9 against 3.7). The price: the first-class Rⁿ kernels compile once per
+  machine (an empty cache: the gas containers' first solve) in 121 s where they took 95 s. Earlier in the
   history of these ratios: before the step loop stopped counting references to its arrays
   (docs/engine_speed.md, reading) they were 4.5, 5.5, 7.3 and 4.6; before the catalogue's Euler and random
   Fish P were written at the cost of their structure (below), 1.9, 3.2, 6.7 and 4.2; the pendula were at

@@ -52,7 +52,7 @@ def apply_M(model, x, v, out, with_size):
     return norm_rows(m) if with_size else 0.0
 
 
-@inner
+@hot
 def _add_dissipative(out, model, eps, x, gh):
     """``out += eps D(x) grad S(x)``, ``gh = grad H(x)``."""
     p = model.params
@@ -75,7 +75,7 @@ def _add_dissipative(out, model, eps, x, gh):
             out[i] += eps * s
 
 
-@inner
+@hot
 def field_into(out, model, eps, hamiltonian, x):
     """``out = xi(x)``; returns ``out``."""
     p = model.params
@@ -89,7 +89,7 @@ def field_into(out, model, eps, hamiltonian, x):
     return out
 
 
-@inner
+@hot
 def dissipative_into(out, model, eps, x):
     """``out = eps D(x) grad S(x)``, the dissipative part of the field with its eps; returns ``out``."""
     out[:] = 0.0
@@ -105,7 +105,7 @@ def difference_step(x):
     return SQRT_EPS * (size if size > 0.0 else 1.0)
 
 
-@inner
+@hot
 def jacobian_into(jac, model, eps, hamiltonian, x, f0, shifted, column):
     """``jac[i, j] = d xi_i / d x_j`` at ``x`` by forward differences (n field calls), ``f0 = xi(x)``;
     ``shifted`` and ``column`` are scratch vectors."""

@@ -14,7 +14,10 @@ never compiled on their own and need neither.)
 ``hot`` is ``inner`` for what the loop runs at every step or iteration
 (``loop._attempted``, ``runge_kutta.rk4_step``, ``dg_step.discrete_gradient_step``,
 the composition's ``composed_step`` and ``_composition``, ``newton.newton`` and
-the discrete field with ``polish`` and ``discrete_axial``): numba compiles each
+the discrete field with ``polish`` and ``discrete_axial``; in R^n the discrete
+field, its discrete gradients and projections, ``vecn``'s small loops, the field
+and its Jacobian by differences, and the Newton matrix's refresh, factors and
+solve): numba compiles each
 once, as any ``inner`` kernel, and marks it for LLVM to inline into its
 callers (numba's ``forceinline``), sparing the thirty-odd scalar arguments
 and the result through memory of a call.  ``forceinline`` is inherited by

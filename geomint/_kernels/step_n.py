@@ -601,7 +601,7 @@ def damped_eps(damped, eps, h, work):
     return eps * damping(work[WN_KAPPA], h) if damped and eps != 0.0 else eps
 
 
-@inner
+@hot
 def refresh(model, eps, hamiltonian, damped, x, h, work):
     """``D xi(x)`` by differences into the workspace and ``A = I - h/2 D xi`` factored; returns False where
     ``A`` is singular.  Leaves ``xi(x)`` in ``V_K1``.  ``damped``: the Hamiltonian and dissipative parts are
@@ -631,7 +631,7 @@ def refresh(model, eps, hamiltonian, damped, x, h, work):
     return factor(work, n, h)
 
 
-@inner
+@hot
 def factor(work, n, h):
     """``A = I - h/2 D xi`` from the kept Jacobian, factored in place: by hand below ``LAPACK_MIN_N``, by LAPACK
     from it; block by block where the workspace uses the Jacobian's zero pattern.  Returns False where A is
@@ -657,7 +657,7 @@ def factor(work, n, h):
     return ok
 
 
-@inner
+@hot
 def solve(model, eps, hamiltonian, work, n, b):
     """``b = A^-1 b`` (in place) with the kept factors; returns the field evaluations it took (the block solve's
     bordered rows: ``sparse_n.solve``)."""

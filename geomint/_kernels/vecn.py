@@ -164,7 +164,7 @@ def remove_along(u, direction):
     return u
 
 
-@inner
+@hot
 def norm_rows(m):
     """The infinity norm of a matrix: its largest absolute row sum."""
     largest = 0.0
@@ -177,7 +177,7 @@ def norm_rows(m):
     return largest
 
 
-@inner
+@hot
 def matvec_into(out, m, v):
     for i in range(m.shape[0]):
         s = 0.0
@@ -187,7 +187,7 @@ def matvec_into(out, m, v):
     return out
 
 
-@inner
+@hot
 def lu_factor(a, base, n, pivots, first):
     """Factor the (n, n) matrix stored row by row at ``a[base:base + n * n]`` in place as ``P a = L U`` (partial
     pivoting); ``pivots[first:first + n]`` (floats) records the rows.  (Flat storage: one routine serves a dense
@@ -218,7 +218,7 @@ def lu_factor(a, base, n, pivots, first):
     return True
 
 
-@inner
+@hot
 def lu_solve(lu, base, n, pivots, first, b):
     """Solve ``a x = b[:n]`` in place (``b`` becomes x) from ``lu_factor``'s factors at ``base``, ``first``."""
     for k in range(n):

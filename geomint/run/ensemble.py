@@ -365,7 +365,11 @@ def _step_ratios(system, integrator, h, X0, ends, params, eps):
     distinct (eps, params) with the largest eps (the stiffest, where a step is likeliest to be far beyond the
     dynamics); the others keep NaN."""
     ratio, rate = np.full(len(X0), np.nan), np.full(len(X0), np.nan)
-    keys, group = np.unique(np.column_stack([eps, params]), axis=0, return_inverse=True)
+    rows = np.column_stack([eps, params])
+    if len(rows) and np.all(rows == rows[0]):  # one (eps, params) for all, as most ensembles: no sort of n rows
+        keys, group = rows[:1], np.zeros(len(rows), dtype=np.intp)
+    else:
+        keys, group = np.unique(rows, axis=0, return_inverse=True)
     stiffest_first = np.argsort(-np.abs(keys[:, 0]), kind="stable")
     for k in stiffest_first[:RATIO_GROUPS]:
         key = keys[k]
