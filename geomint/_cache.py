@@ -18,7 +18,10 @@ The cache root is the first writable folder of
 4. ``<temporary folder>/geomint-<uid>``.
 
 Generated modules of systems written as formulas live under the same root
-(``<root>/expressions``).  The digest of the package folder keeps two
+(``<root>/expressions``), and so does what numba compiles for the user's own
+functions that geomint can name again in another process (:func:`keep_compiled`):
+``<root>/numba/user/<folder>_<digest of the folder>``, never beside the user's
+files.  The digest of the package folder keeps two
 checkouts or installs apart.  With no writable folder at all, ``CACHE`` is
 False, kernels are compiled anew in every process, and one warning says so.
 """
@@ -29,6 +32,7 @@ import hashlib
 import os
 import tempfile
 import warnings
+import weakref
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -92,6 +96,56 @@ class PackageCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheL
         return super().from_function(py_func, py_file)
 
 
+#: the user functions whose compiled code is kept under the cache root (``keep_compiled``), with the tag that tells
+#: apart what numba's own index does not (the globals frozen in, the compile options)
+_KEPT: weakref.WeakKeyDictionary[Callable[..., Any], str] = weakref.WeakKeyDictionary()
+
+
+class UserFunctionLocator(caching._SourceFileBackedLocatorMixin, caching._CacheLocator):
+    """numba's cache locator for the user functions geomint keeps compiled (``keep_compiled``): under
+    ``<root>/numba/user``, a folder per source folder; numba checks the source file's content (its stamp), and the
+    disambiguator carries the function's line and its tag."""
+
+    def __init__(self, py_func: Callable[..., Any], py_file: str) -> None:
+        self._py_file = py_file
+        self._lineno = py_func.__code__.co_firstlineno
+        self._tag = _KEPT[py_func]
+        # ROOT is not None: from_function returns no locator without it
+        self._cache_path = str(Path(ROOT) / "numba" / "user" / self.get_suitable_cache_subpath(py_file))  # pyright: ignore[reportArgumentType]
+
+    def get_cache_path(self) -> str:
+        return self._cache_path
+
+    def get_disambiguator(self) -> str:
+        return f"{self._lineno}.{self._tag}"
+
+    @classmethod
+    def from_function(cls, py_func: Callable[..., Any], py_file: str) -> UserFunctionLocator | None:
+        if ROOT is None or py_func not in _KEPT:
+            return None
+        return super().from_function(py_func, py_file)
+
+
+def keep_compiled(dispatcher: Any, tag: str) -> bool:
+    """Have numba keep what it compiles for the user's ``dispatcher`` under the cache root (``UserFunctionLocator``)
+    and load it from there in later processes; ``tag`` names what numba's index does not check (the caller's
+    ``geomint.model.identity.unseen_part``).  Nothing is done without a writable root or where numba caches the
+    function already (``njit(cache=True)``).  Returns whether the function's code is kept here."""
+    if ROOT is None or not isinstance(dispatcher._cache, caching.NullCache):
+        return dispatcher.py_func in _KEPT
+    _KEPT[dispatcher.py_func] = tag
+    try:
+        dispatcher.enable_caching()
+        cache: Any = dispatcher._cache  # a FunctionCache now
+        kept = isinstance(cache._impl.locator, UserFunctionLocator)  # never beside the user's files
+    except RuntimeError:  # no locator for its file: numba raises
+        kept = False
+    if not kept:
+        dispatcher._cache = caching.NullCache()
+        del _KEPT[dispatcher.py_func]
+    return kept
+
+
 def _drop_stale_kernels(root: Path) -> None:
     """Delete numba's on-disk cache of the kernels (``geomint/_kernels``) when any kernel source changed.
 
@@ -125,8 +179,9 @@ def _register():
         return False
     implementation = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # pyright: ignore[reportAttributeAccessIssue]  # renamed in numba 0.61
     locators = implementation._locator_classes
-    if PackageCacheLocator not in locators:
-        locators.insert(0, PackageCacheLocator)
+    for locator in (UserFunctionLocator, PackageCacheLocator):
+        if locator not in locators:
+            locators.insert(0, locator)
     _drop_stale_kernels(ROOT)
     return True
 

@@ -5,8 +5,7 @@ import os
 import pickle
 import subprocess
 import sys
-import textwrap
-import types
+from pathlib import Path
 
 import numba
 import numpy as np
@@ -15,6 +14,7 @@ from numba.core.types.function_type import CompileResultWAP
 
 import geomint
 from geomint.model import handles
+from geomint.model.identity import function_key
 from geomint.systems import relaxing_rigid_body
 
 pytestmark = pytest.mark.inlined  # the step loop as users run it (conftest.py)
@@ -62,57 +62,8 @@ def test_module_level_functions_are_inlined_and_local_ones_first_class():
     assert isinstance(model.H, handles.InlinedHandle) and model.H.dispatcher is _H
     assert model.H.key[:2] == (__name__, "_H")
     assert isinstance(model.S, CompileResultWAP)  # made inside a function: no stable name to cache it by
-    assert handles.inline_key(local_S) is None
-    assert handles.inline_key(lambda x, p: 0.0) is None
-
-
-def test_the_key_follows_the_source_file_and_the_compile_options():
-    key = handles.inline_key(_H)
-    assert key is not None and key == handles.inline_key(_H)
-    copy = types.FunctionType(_H.py_func.__code__, globals(), "_H_fast")
-    copy.__qualname__ = "_H_fast"
-    globals()["_H_fast"] = fast = numba.njit(fastmath=True)(copy)  # found again under its name
-    try:
-        other = handles.inline_key(fast)
-        assert other is not None and other[:3] == (__name__, "_H_fast", key[2]) and other[3] != key[3]
-    finally:
-        del globals()["_H_fast"]
-
-
-SCALE = 0.5
-WEIGHTS = np.array([0.5, 1.0, 1.5])
-
-
-@numba.njit
-def _weighted(x, i):
-    return WEIGHTS[i] * x[i] ** 2
-
-
-@numba.njit
-def _H_scaled(x, p):
-    return SCALE * (_weighted(x, 0) + _weighted(x, 1) + _weighted(x, 2))
-
-
-def test_the_key_follows_the_globals_numba_freezes_in():
-    """numba compiles a global number or array into the code as a constant: a script that sets one (a size read
-    from its command line) must not be served kernels cached for another value.  The key follows the globals the
-    function reads and those of the numba functions it calls; other globals (modules, functions) do not move it."""
-    global SCALE, WEIGHTS
-    key = handles.inline_key(_H_scaled)
-    assert key is not None
-    try:
-        SCALE = 0.25
-        scaled = handles.inline_key(_H_scaled)
-        assert scaled is not None and scaled[:2] == key[:2] and scaled[2] != key[2]
-        SCALE = 0.5
-        assert handles.inline_key(_H_scaled) == key
-        WEIGHTS = np.array([0.5, 1.0, 2.0])  # read by the helper it calls
-        weighted = handles.inline_key(_H_scaled)
-        assert weighted is not None and weighted[2] not in (key[2], scaled[2])
-    finally:
-        SCALE, WEIGHTS = 0.5, np.array([0.5, 1.0, 1.5])
-    assert handles.inline_key(_H_scaled) == key
-    assert handles.inline_key(_H)[2].split(".")[0] == key[2].split(".")[0]  # the same file
+    assert function_key(local_S) is None
+    assert function_key(lambda x, p: 0.0) is None
 
 
 def test_the_model_of_every_other_kernel_is_first_class():
@@ -200,30 +151,6 @@ def test_a_handle_travels_to_another_process_as_its_function():
     assert again(X0, np.array([0.5, 1.0, 1.5])) == handle(X0, np.array([0.5, 1.0, 1.5]))
 
 
-_USER_MODULE = """
-import numba, numpy as np
-
-@numba.njit
-def H(x, p):
-    return 0.5 * (0.5 * x[0] ** 2 + x[1] ** 2 + 1.5 * x[2] ** 2)
-
-@numba.njit
-def grad_H(x, p):
-    return (0.5 * x[0], x[1], 1.5 * x[2])
-
-@numba.njit
-def S(x, p):
-    return 0.5 * (x[0] ** 2 + x[1] ** 2 + x[2] ** 2)
-
-@numba.njit
-def grad_S(x, p):
-    return (x[0], x[1], x[2])
-
-@numba.njit
-def J(x, p):
-    return (x[0], x[1], x[2])
-"""
-
 _RUN = """
 import numpy as np, geomint, user
 from geomint._kernels import loop
@@ -236,7 +163,7 @@ print(sum(stats.cache_hits.values()), sum(stats.cache_misses.values()))
 
 @pytest.mark.slow
 def test_a_second_process_loads_the_kernels_compiled_for_a_user_system(tmp_path):
-    (tmp_path / "user.py").write_text(textwrap.dedent(_USER_MODULE))
+    (tmp_path / "user.py").write_text((Path(__file__).parent / "data" / "user_rigid_body.py").read_text())
     environment = {**os.environ, "GEOMINT_CACHE_DIR": str(tmp_path / "cache"), "PYTHONPATH": str(tmp_path)}
 
     def run():

@@ -3,7 +3,10 @@
 Every user function has the signature ``(x, params)`` with ``x`` and
 ``params`` contiguous float64 arrays.  A function is compiled for that
 signature once, here; its return type decides the compiled kernel variant
-(3-tuples or arrays, an axial vector ``J`` or a matrix ``P``).  Under
+(3-tuples or arrays, an axial vector ``J`` or a matrix ``P``).  What numba
+compiles for a function a later process can name again (a module-level
+function, ``geomint.model.identity``) is kept in geomint's cache folder
+(:func:`compiled`): that process loads it instead of compiling it again.  Under
 ``NUMBA_DISABLE_JIT=1`` plain Python functions are taken as they are.
 
 In R^n (``dim`` given) vectors are float64 arrays of length n and matrices
@@ -12,15 +15,18 @@ In R^n (``dim`` given) vectors are float64 arrays of length n and matrices
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable
 
 import numba
 import numpy as np
 from numba.core.dispatcher import Dispatcher
+from numba.core.errors import NumbaWarning
 
-from .._cache import CACHE
+from .._cache import CACHE, keep_compiled
 from .checks import SAMPLES
+from .identity import function_key, unseen_part
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -105,6 +111,21 @@ def _how_to_jit_action(name):
     )
 
 
+def compiled(fn: Dispatcher, signature: tuple) -> Any:
+    """``fn``'s compilation for ``signature`` (numba's ``CompileResult``).  Where a later process can name ``fn``
+    again (``identity.function_key``), numba keeps the code in geomint's cache folder (``_cache.keep_compiled``)
+    and that process loads it: tens of milliseconds a function saved, a tenth of a second or more for the first
+    one of a process.  Where numba cannot keep it (a function holding a ctypes pointer, a large array), it is
+    compiled in every process as before, without numba's warning: the user did not ask for a cache."""
+    key = function_key(fn)
+    if key is not None:
+        keep_compiled(fn, unseen_part(key))
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Cannot cache compiled function", category=NumbaWarning)
+        fn.compile(signature)
+    return fn.overloads[signature]
+
+
 def _compiled_return_type(name, fn, dim=None, signature=SIGNATURE):
     action = signature is ACTION_SIGNATURE
     how = _how_to_jit_action(name) if action else _how_to_jit(name, dim)
@@ -116,13 +137,13 @@ def _compiled_return_type(name, fn, dim=None, signature=SIGNATURE):
     if not isinstance(fn, Dispatcher):
         raise TypeError(f"`{name}` must be a numba-jitted function; got {fn!r}. {how}")
     try:
-        fn.compile(signature)
+        result = compiled(fn, signature)
     except Exception as exc:
         raise TypeError(
             f"`{name}` does not compile for {arguments} with float64 arrays: "
             f"{type(exc).__name__}: {str(exc).splitlines()[0]}. {how}"
         ) from exc
-    return fn.overloads[signature].signature.return_type
+    return result.signature.return_type
 
 
 def scalar_function(name: str, fn: Any, dim: int | None = None) -> Any:

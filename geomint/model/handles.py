@@ -15,7 +15,8 @@ compilation by the dispatcher *object*, so its on-disk cache never hits in
 another process and every process would pay the compilation again.  This
 module gives each user function a numba type of its own, :class:`Inlined`,
 that calls it as a dispatcher type does but is keyed by *what the function
-is*: its module, its qualified name and a digest of its source file.  A
+is* (``geomint.model.identity.function_key``: its module, its qualified name,
+a digest of its source file and of the globals numba compiles into it).  A
 second process that builds the same system finds the kernels compiled for it
 on disk.
 
@@ -29,15 +30,10 @@ on disk.
   before: one compilation per system form, cached, calls not inlined.  Caching
   a kernel specialised to such a function would be keyed by nothing stable.
 
-The digest covers the function's whole source file, so editing the file (the
-function or a helper beside it) compiles the kernels again, and the values of
-the globals the function reads (and the numba functions it calls read),
-which numba freezes into the compiled code as constants: numbers, strings,
-tuples of them and arrays.  A script that reads a size from its command line
-into a global gets kernels of that size, not those cached for the last one
-(numba's own cache keys by the file alone, and would serve them).  A change
-in *another* file the function calls is not seen: clear the cache
-(``geomint._cache``) after such a change.
+Editing the function's file (the function or a helper beside it) compiles the
+kernels again, and so does a new value of a global numba froze into it (a size
+read from the command line); a change in *another* file the function calls is
+not seen (``geomint.model.identity``).
 
 Where it pays: a system in R^3 is specialised by default; a system in R^n
 is handed over first-class (:func:`enabled`).  ``GEOMINT_INLINE=all`` in the
@@ -54,15 +50,11 @@ erases another system's entry.
 
 from __future__ import annotations
 
-import hashlib
-import inspect
 import os
-import sys
 import warnings
 from typing import Any
 
 import numba
-import numpy as np
 from numba.core import types
 from numba.core.datamodel.models import OpaqueModel
 from numba.core.dispatcher import Dispatcher
@@ -70,7 +62,8 @@ from numba.core.errors import NumbaExperimentalFeatureWarning
 from numba.core.types.function_type import CompileResultWAP
 from numba.extending import register_model
 
-from .functions import ACTION_SIGNATURE, SIGNATURE
+from .functions import ACTION_SIGNATURE, SIGNATURE, compiled
+from .identity import function_key
 
 # numba warns at each compilation with a first-class function that the feature is experimental; the user cannot act
 # on that, so this one warning is filtered (by its message, nothing else)
@@ -80,8 +73,6 @@ warnings.filterwarnings(
 
 #: the live type of each key in this process
 _LIVE: dict[tuple[str, ...], Inlined] = {}
-#: the digest of each source file this process has read
-_FILES: dict[str, str] = {}
 
 
 def _rebuild(key: tuple[str, ...]) -> types.Type:
@@ -149,58 +140,6 @@ class InlinedHandle:
         return (kernel_handle, (self.dispatcher, False, True))
 
 
-def _file_digest(path: str) -> str | None:
-    if path not in _FILES:
-        try:
-            with open(path, "rb") as f:
-                _FILES[path] = hashlib.sha1(f.read()).hexdigest()[:16]
-        except OSError:
-            return None
-    return _FILES[path]
-
-
-#: the global values numba freezes into compiled code as constants (``_frozen_globals``)
-_CONSTANTS = (bool, int, float, complex, str, bytes, type(None), np.generic)
-
-
-def _constant_digest(value: Any) -> bytes | None:
-    """The bytes that fix ``value`` as numba freezes it, None for what it does not freeze (modules, functions)."""
-    if isinstance(value, _CONSTANTS):
-        return f"{type(value).__name__}:{value!r}".encode()
-    if isinstance(value, np.ndarray):
-        return f"{value.dtype.str}{value.shape}".encode() + np.ascontiguousarray(value).tobytes()
-    if isinstance(value, tuple):
-        parts = [part for part in map(_constant_digest, value) if part is not None]
-        return b"(" + b",".join(parts) + b")" if len(parts) == len(value) else None
-    return None
-
-
-def _names(code: Any) -> set[str]:
-    """The global names a code object and the code objects nested in it read."""
-    names = set(code.co_names)
-    for const in code.co_consts:
-        if inspect.iscode(const):
-            names |= _names(const)
-    return names
-
-
-def _frozen_globals(py_func: Any, seen: set[int] | None = None) -> str:
-    """A digest of the values of the globals ``py_func`` reads that numba compiles in as constants, and of
-    those the numba functions it calls read (followed once each)."""
-    seen = set() if seen is None else seen
-    seen.add(id(py_func))
-    digest = hashlib.sha1()
-    # co_names also lists attribute names (x.shape) and builtins (range): only the module's globals are frozen in
-    for name in sorted(_names(py_func.__code__) & py_func.__globals__.keys()):
-        value = py_func.__globals__[name]
-        frozen = _constant_digest(value)
-        if frozen is not None:
-            digest.update(name.encode() + b"=" + frozen + b";")
-        elif isinstance(value, Dispatcher) and id(value.py_func) not in seen:
-            digest.update(f"{name}->{_frozen_globals(value.py_func, seen)};".encode())
-    return digest.hexdigest()[:16]
-
-
 def enabled(rn: bool = False) -> bool:
     """Whether the step loop of a system in R^3 (``rn`` False) or in R^n inlines its user functions, by
     ``GEOMINT_INLINE``: unset or ``1``, in R^3 only; ``all``, in R^n too; ``0``, nowhere (every function handed
@@ -214,33 +153,6 @@ def enabled(rn: bool = False) -> bool:
     return setting == "all" or (setting != "0" and not rn)
 
 
-def inline_key(fn: Any) -> tuple[str, ...] | None:
-    """``(module, qualname, digest of the source file and of the globals frozen in, digest of the compile
-    options)`` of a module-level numba function found again under its module and name, else None (see the module
-    docstring)."""
-    if not isinstance(fn, Dispatcher):
-        return None
-    py_func = fn.py_func
-    module, qualname = py_func.__module__, py_func.__qualname__
-    if "<" in qualname or module not in sys.modules:  # <locals>, <lambda>
-        return None
-    found: Any = sys.modules[module]
-    for part in qualname.split("."):
-        found = getattr(found, part, None)
-    if found is not fn:
-        return None
-    try:
-        source = inspect.getsourcefile(py_func)
-    except TypeError:
-        source = None
-    digest = _file_digest(source) if source else None
-    if digest is None:
-        return None
-    digest = f"{digest}.{_frozen_globals(py_func)}"
-    options = repr(sorted(fn.targetoptions.items()))  # fastmath, error_model ... change the compiled code
-    return (module, qualname, digest, hashlib.sha1(options.encode()).hexdigest()[:8])
-
-
 def kernel_handle(fn: Any, action: bool = False, inline: bool = True) -> Any:
     """A jitted user function as the kernels receive it: an :class:`InlinedHandle` where ``inline`` and it can be
     inlined and cached, else a first-class function object of ``(x, v, params)`` where ``action``, of
@@ -249,8 +161,8 @@ def kernel_handle(fn: Any, action: bool = False, inline: bool = True) -> Any:
         return fn
     signature = ACTION_SIGNATURE if action else SIGNATURE
     if signature not in fn.overloads:  # a system unpickled in another process (a Dask worker)
-        fn.compile(signature)
-    key = inline_key(fn) if inline else None
+        compiled(fn, signature)
+    key = function_key(fn) if inline else None
     if key is None:
         return CompileResultWAP(fn.overloads[signature])
     return InlinedHandle(fn, key)
