@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numba
 import numpy as np
+import pytest
 from numba.core import caching
 
 from geomint import _cache
@@ -101,8 +102,9 @@ def test_a_module_level_function_is_kept_in_the_cache_root_and_others_are_left_a
     assert not isinstance(catalogue._cache._impl.locator, _cache.UserFunctionLocator)
 
 
-#: the user's module the processes import as ``user``
+#: the user's modules the processes import as ``user`` (R^3) and ``chain`` (R^n)
 USER_MODULE = (Path(__file__).parent / "data" / "user_rigid_body.py").read_text()
+CHAIN_MODULE = (Path(__file__).parent / "data" / "user_chain.py").read_text()
 
 #: builds the system (no structure checks: no kernel compiled) and prints the five functions' cache hits and misses,
 #: and H at (1, 1, 1)
@@ -146,3 +148,45 @@ def test_the_kept_code_follows_the_frozen_globals_and_the_file(tmp_path):
     assert _build(folder, cache) == (5, 0, 3.0)  # the first value's code is still there
     (folder / "user.py").write_text(USER_MODULE.replace("3.0 * x[2] ** 2", "7.0 * x[2] ** 2"))
     assert _build(folder, cache) == (0, 5, 5.0)
+
+
+#: the same for a system in R^n (``dim`` from the command line), its five functions returning arrays
+_BUILD_N = """
+import sys
+import numpy as np, geomint, chain
+functions = (chain.H, chain.grad_H, chain.S, chain.grad_S, chain.P)
+n = int(sys.argv[1])
+geomint.MetriplecticSystem(
+    H=chain.H, grad_H=chain.grad_H, S=chain.S, grad_S=chain.grad_S, P=chain.P, eps=0.1, dim=n, check=False
+)
+hits = sum(sum(fn.stats.cache_hits.values()) for fn in functions)
+misses = sum(sum(fn.stats.cache_misses.values()) for fn in functions)
+print(hits, misses, chain.H(np.ones(n), np.zeros(0)))
+"""
+
+
+@pytest.mark.parametrize("n", [2, 4, 16, 64])
+def test_a_second_process_loads_the_functions_of_a_system_in_rn(n, tmp_path):
+    """Arrays in, arrays out, any n: the code numba compiles for ``(x, params)`` does not depend on n, so one
+    kept compilation serves every n."""
+    folder, cache = tmp_path / "src", tmp_path / "cache"
+    folder.mkdir()
+    (folder / "chain.py").write_text(CHAIN_MODULE)
+    environment = {**os.environ, "GEOMINT_CACHE_DIR": str(cache), "PYTHONPATH": str(folder)}
+
+    def build(size):
+        out = subprocess.run(
+            [sys.executable, "-c", _BUILD_N, str(size)],
+            env=environment,
+            cwd=folder,
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        hits, misses, value = out.stdout.split()[-3:]
+        return int(hits), int(misses), float(value)
+
+    assert build(n) == (0, 5, 0.5 * n)
+    assert build(n) == (5, 0, 0.5 * n)
+    assert build(n + 1) == (5, 0, 0.5 * (n + 1))  # another n: the same code
+    assert not [p for p in folder.rglob("*") if p.suffix in (".nbi", ".nbc")]
