@@ -118,10 +118,17 @@ print(hits, misses, user.H(np.ones(3), np.zeros(0)))
 """
 
 
-def _build(folder, cache, scale="0.5"):
+def _build(folder, cache, scale="0.5", script=_BUILD, *arguments):
+    """Runs ``script`` (``_BUILD``, or ``_BUILD_N`` with n in ``arguments``) in a fresh process importing from
+    ``folder``, geomint's cache in ``cache``: ``(hits, misses, H)``."""
     environment = {**os.environ, "GEOMINT_CACHE_DIR": str(cache), "PYTHONPATH": str(folder), "USER_SCALE": scale}
     out = subprocess.run(
-        [sys.executable, "-c", _BUILD], env=environment, cwd=folder, capture_output=True, text=True, check=True
+        [sys.executable, "-c", script, *arguments],
+        env=environment,
+        cwd=folder,
+        capture_output=True,
+        text=True,
+        check=True,
     )
     hits, misses, value = out.stdout.split()[-3:]
     return int(hits), int(misses), float(value)
@@ -172,19 +179,9 @@ def test_a_second_process_loads_the_functions_of_a_system_in_rn(n, tmp_path):
     folder, cache = tmp_path / "src", tmp_path / "cache"
     folder.mkdir()
     (folder / "chain.py").write_text(CHAIN_MODULE)
-    environment = {**os.environ, "GEOMINT_CACHE_DIR": str(cache), "PYTHONPATH": str(folder)}
 
     def build(size):
-        out = subprocess.run(
-            [sys.executable, "-c", _BUILD_N, str(size)],
-            env=environment,
-            cwd=folder,
-            capture_output=True,
-            text=True,
-            check=True,
-        )
-        hits, misses, value = out.stdout.split()[-3:]
-        return int(hits), int(misses), float(value)
+        return _build(folder, cache, "0.5", _BUILD_N, str(size))
 
     assert build(n) == (0, 5, 0.5 * n)
     assert build(n) == (5, 0, 0.5 * n)
