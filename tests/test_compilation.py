@@ -4,6 +4,7 @@ geomint leaves the heavy optional modules (sympy, matplotlib) unloaded until the
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numba
 import pytest
@@ -109,3 +110,62 @@ def test_typed_inline_inlines_its_implementation_without_compiling_it_alone(type
     assert value == 7.0
     assert ("<lambda>" in compiled) is not typed
     assert "caller" in compiled
+
+
+def test_only_types_holding_no_dispatcher_count_as_model_free():
+    """``jit._specialised``: a compilation for a function's dispatcher type (an inlined user function), alone or
+    inside (nested) tuples such as a model, is specialised to that function object; numbers, arrays and
+    first-class function types are not."""
+    dispatcher = numba.types.Dispatcher(njit(lambda x: x))
+    first_class = numba.types.FunctionType(numba.types.float64(numba.types.float64))
+    array = numba.types.float64[:]
+    assert not jit._specialised(numba.types.float64)
+    assert not jit._specialised(numba.types.UniTuple(numba.types.float64, 3))
+    assert not jit._specialised(numba.types.Tuple((array, first_class)))
+    assert jit._specialised(dispatcher)
+    assert jit._specialised(numba.types.Tuple((array, numba.types.Tuple((numba.types.float64, dispatcher)))))
+
+
+NEW_SYSTEM = """
+import sys
+import numpy as np
+import geomint
+from geomint._kernels import newton
+if sys.argv[1] == "user":
+    import user as u
+    system = geomint.MetriplecticSystem(H=u.H, grad_H=u.grad_H, S=u.S, grad_S=u.grad_S, J=u.J, eps=0.1)
+else:
+    system = geomint.systems.relaxing_rigid_body(0.5, 1.0, 1.5, eps=0.1)
+sol = geomint.solve(system, [np.cos(1.1), 0.0, np.sin(1.1)], (0.0, 1.0), 0.01)
+loaded = lambda kernel: sum(kernel.stats.cache_hits.values())
+print(sol.success, loaded(newton.remember), loaded(newton.newton))
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(numba.config.DISABLE_JIT, reason="compiled code only")
+def test_a_new_system_loads_the_kernels_that_do_not_depend_on_it(tmp_path):
+    """A loop compiled for a new system loads from the cache the kernels whose arguments hold none of the
+    system's functions (``newton.remember``) and compiles those that call them (``newton.newton``), which are
+    cached only inside the loop: nothing of theirs is written on its own (``jit._ModelFreeCache``)."""
+    (tmp_path / "user.py").write_text((Path(__file__).parent / "data" / "user_rigid_body.py").read_text())
+    # the library's default (the test session hands functions over first-class: tests/conftest.py)
+    env = {"GEOMINT_CACHE_DIR": str(tmp_path / "cache"), "PYTHONPATH": str(tmp_path), "GEOMINT_INLINE": "1"}
+
+    def run(which):
+        result = subprocess.run(
+            [sys.executable, "-c", NEW_SYSTEM, which],
+            capture_output=True,
+            text=True,
+            timeout=900,
+            cwd=tmp_path,
+            env={**os.environ, **env},
+        )
+        assert result.returncode == 0, result.stderr
+        return result.stdout.split()
+
+    assert run("catalogue") == ["True", "0", "0"]  # an empty cache: everything compiled
+    assert run("user") == ["True", "1", "0"]  # remember loaded, newton compiled for the new system
+    cached = [p.name for p in (tmp_path / "cache").rglob("*.nbi")]
+    assert any(name.startswith("newton.remember-") for name in cached)
+    assert not any(name.startswith("newton.newton-") for name in cached)

@@ -24,6 +24,16 @@ and the result through memory of a call.  ``forceinline`` is inherited by
 the kernels that a kernel's compilation compiles first, so ``inner`` turns
 it off explicitly.  Measurements: docs/design.md sections 5 and 5a.
 
+``inner`` and ``hot`` kernels are cached on disk, each on its own, but only their compilations for arguments
+that hold no user function specialised into them (``geomint.model.handles.Inlined``, a numba dispatcher type):
+``_ModelFreeCache``.  A kernel compiled for a new system (``loop.run`` with the system's functions inlined)
+then loads the kernels it calls that do not depend on the system (the workspace's predictor, the state's flush,
+the saved rows ...) instead of compiling them again; what depends on the system is compiled for it, and cached
+only inside ``run``'s own compilation, so that a new system adds one entry to the cache, not one per kernel.  A
+cached kernel's library keeps its LLVM bitcode, so ``hot`` kernels are still inlined by LLVM into their callers
+(numba's ``serialize_using_object_code``).  Closures made by factories (``discrete_field._discrete_field_with``)
+are not cached: numba keys them by a pickle of their cells, which holds kernels pickled anew by each process.
+
 ``typed_inline(fn)`` is numba's ``overload(fn, inline="always")`` for the
 kernels' choices by type (the step by the method's type, the controller's
 parts by the controller's, R^3 or R^n by the model's): the implementation the
@@ -41,23 +51,48 @@ from typing import Any, Callable
 
 import numba
 from numba import njit
-from numba.core import types
+from numba.core import caching, types
 from numba.core.typing import templates
 from numba.extending import overload
 
+from .._cache import CACHE
+
+
+def _specialised(ty: Any) -> bool:
+    """Whether the numba type ``ty`` is, or holds in a tuple, a function's dispatcher type (an inlined user
+    function, ``geomint.model.handles.Inlined``): compiled code specialised to one function object."""
+    if isinstance(ty, types.Dispatcher):
+        return True
+    members = getattr(ty, "types", None) if isinstance(ty, types.BaseTuple) else None
+    return members is not None and any(_specialised(member) for member in members)
+
+
+class _ModelFreeCache(caching.FunctionCache):
+    """numba's on-disk cache of one kernel, saving only its compilations whose arguments hold no user function
+    specialised into them (the module docstring)."""
+
+    def save_overload(self, sig: Any, data: Any) -> None:
+        arguments = sig.args if hasattr(sig, "args") else sig
+        if not any(_specialised(ty) for ty in arguments):
+            super().save_overload(sig, data)
+
+
+def _kernel(**options: Any) -> Callable[[Callable[..., Any]], Any]:
+    """``njit(**options)`` with the kernel's model-free compilations cached (``_ModelFreeCache``)."""
+    decorate = njit(**options)
+
+    def make(fn: Callable[..., Any]) -> Any:
+        dispatcher: Any = decorate(fn)
+        if CACHE and fn.__closure__ is None and hasattr(dispatcher, "_cache"):  # (not under NUMBA_DISABLE_JIT)
+            dispatcher._cache = _ModelFreeCache(fn)
+        return dispatcher
+
+    return make
+
+
 # (no_cpython_wrapper and no_cfunc_wrapper are numba's own options, which its stubs for njit do not list)
-inner = njit(
-    error_model="numpy",
-    no_cpython_wrapper=True,
-    no_cfunc_wrapper=True,  # pyright: ignore[reportCallIssue]
-    forceinline=False,
-)
-hot = njit(
-    error_model="numpy",
-    no_cpython_wrapper=True,
-    no_cfunc_wrapper=True,  # pyright: ignore[reportCallIssue]
-    forceinline=True,
-)
+inner = _kernel(error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True, forceinline=False)
+hot = _kernel(error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True, forceinline=True)
 
 #: the compile options of the kernels' overloads (``numba.extending.overload``): numba compiles each overload's
 #: implementation on its own before it inlines or calls it, and, as for ``inner``, no Python or C wrapper is ever
