@@ -347,8 +347,10 @@ def report_solves(solves, repeats):
 READING = """
 ## Reading
 
-**This run (2026-11-27) misses two lines that the page's run of 2026-11-26 (morning) held.** Gonzalez moving 2.17 ×
-the exact floor (1.81 then) and `solve_ensemble` 2.27 × the prange floor (1.97); the floors ran 5-11 % slower than
+**This run (2026-11-27, 09:00 UTC) misses two lines that the page's run of 2026-11-26 (morning) held.** Gonzalez
+moving 2.16 × the exact floor (1.81 then) and `solve_ensemble` 2.41 × the prange floor (1.97), with the kernels that do
+not depend on the system now loaded from the cache (docs/startup.md: the same bits); the run of 01:30 UTC that day,
+before that change, read 2.17 and 2.27. In that earlier run the floors ran 5-11 % slower than
 then (moving 101 ns against 91; the prange floor 16 %), geomint's Gonzalez steps and ensemble 30-35 % slower (moving
 220 ns against 165; its RK4 5 %). It is not the code: the commit that page was written from (78b230a), measured the
 same hour in fresh processes interleaved with this one (a script timing the moving case alone, 15 repeats a
