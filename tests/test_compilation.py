@@ -26,9 +26,15 @@ print(sum(stats.cache_hits.values()), sum(stats.cache_misses.values()), sol.succ
 """
 
 
-def _python(code, **env):
+def _python(code, *arguments, cwd=None, **env):
+    """The standard output of ``code`` run in a fresh process with ``arguments``, in ``cwd``, ``env`` added."""
     result = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, timeout=900, env={**os.environ, **env}
+        [sys.executable, "-c", code, *arguments],
+        capture_output=True,
+        text=True,
+        timeout=900,
+        cwd=cwd,
+        env={**os.environ, **env},
     )
     assert result.returncode == 0, result.stderr
     return result.stdout
@@ -153,16 +159,7 @@ def test_a_new_system_loads_the_kernels_that_do_not_depend_on_it(tmp_path):
     env = {"GEOMINT_CACHE_DIR": str(tmp_path / "cache"), "PYTHONPATH": str(tmp_path), "GEOMINT_INLINE": "1"}
 
     def run(which):
-        result = subprocess.run(
-            [sys.executable, "-c", NEW_SYSTEM, which],
-            capture_output=True,
-            text=True,
-            timeout=900,
-            cwd=tmp_path,
-            env={**os.environ, **env},
-        )
-        assert result.returncode == 0, result.stderr
-        return result.stdout.split()
+        return _python(NEW_SYSTEM, which, cwd=tmp_path, **env).split()
 
     assert run("catalogue") == ["True", "0", "0"]  # an empty cache: everything compiled
     assert run("user") == ["True", "1", "0"]  # remember loaded, newton compiled for the new system
